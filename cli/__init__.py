@@ -1,0 +1,1 @@
+"""flylog's command-line layer (installed as ``flylog.cli``): parsing, progress, exit codes."""

@@ -1,0 +1,3 @@
+"""flylog: evolutionary stereovision (the fly algorithm) with sensor fusion, over MCAP logs."""
+
+__version__ = "0.1.0"
