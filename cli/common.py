@@ -1,0 +1,103 @@
+"""What every command shares: turning library errors into messages and exit codes, progress."""
+
+from __future__ import annotations
+
+import functools
+import sys
+import warnings
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from typing import Any, TypeVar
+
+import click
+from rich.console import Console
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    Progress,
+    TextColumn,
+    TimeElapsedColumn,
+    TimeRemainingColumn,
+)
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+EXIT_BAD_INPUT = 2
+EXIT_INTERRUPTED = 130
+
+stderr = Console(stderr=True, highlight=False)
+stdout = Console(highlight=False)
+
+
+def reports_errors(fn: F) -> F:
+    """Run a command body; a FlylogError becomes one red line on stderr and exit code 2,
+    Ctrl-C exit code 130, and library warnings (e.g. a truncated log) yellow lines."""
+
+    @functools.wraps(fn)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        from flylog.errors import FlylogError
+
+        def show_warning(message, category, filename, lineno, file=None, line=None):
+            stderr.print(f"[yellow]warning:[/] {message}")
+
+        previous = warnings.showwarning
+        warnings.showwarning = show_warning
+        try:
+            return fn(*args, **kwargs)
+        except FlylogError as exc:
+            stderr.print(f"[red]error:[/] {exc}")
+            sys.exit(EXIT_BAD_INPUT)
+        except KeyboardInterrupt:
+            stderr.print("[red]interrupted[/]: no output was written")
+            sys.exit(EXIT_INTERRUPTED)
+        finally:
+            warnings.showwarning = previous
+
+    return wrapper  # type: ignore[return-value]
+
+
+@contextmanager
+def progress_bar(description: str, total: float, unit: str) -> Iterator[Callable[[float], None]]:
+    """A rich progress bar; yields ``advance_to(done)``. Hidden when stderr is not a terminal."""
+    columns = (
+        TextColumn("[bold]{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn()
+        if unit == "frames"
+        else TextColumn("{task.completed:.1f}/{task.total:.1f} " + unit),
+        TimeElapsedColumn(),
+        TextColumn("ETA"),
+        TimeRemainingColumn(),
+    )
+    with Progress(*columns, console=stderr, transient=False, disable=not stderr.is_terminal) as bar:
+        task = bar.add_task(description, total=total)
+
+        def advance_to(done: float) -> None:
+            bar.update(task, completed=min(done, total))
+
+        yield advance_to
+
+
+def resolution(
+    ctx: click.Context, param: click.Parameter, value: str | None
+) -> tuple[int, int] | None:
+    """Parse ``WxH`` (e.g. 320x240) for --resolution."""
+    if value is None:
+        return None
+    try:
+        w, h = (int(p) for p in value.lower().split("x"))
+    except ValueError:
+        msg = f"expected WIDTHxHEIGHT in pixels, e.g. 320x240, got {value!r}"
+        raise click.BadParameter(msg) from None
+    if w < 16 or h < 16:
+        msg = f"images must be at least 16x16 pixels, got {value!r}"
+        raise click.BadParameter(msg)
+    return w, h
+
+
+def human_bytes(n: float) -> str:
+    for unit in ("B", "KiB", "MiB", "GiB"):
+        if n < 1024 or unit == "GiB":
+            return f"{n:.1f} {unit}" if unit != "B" else f"{int(n)} B"
+        n /= 1024
+    return f"{n:.1f} GiB"

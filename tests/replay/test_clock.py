@@ -1,0 +1,118 @@
+"""The virtual clock: availability, costs, per-frame counts, sync delays, tick visibility."""
+
+import numpy as np
+import pytest
+
+from flylog.geometry import Pose2D
+from flylog.replay.clock import ClockConfig, Mode, run_clock
+from flylog.sensors import OdomReading, StereoPair
+
+MS = 1_000_000
+IMG = np.zeros((2, 2), np.uint8)
+
+
+class Recorder:
+    """A fake pipeline: each generation costs `evals`; records what it saw and when."""
+
+    def __init__(self, evals: int = 1000) -> None:
+        self.evals = evals
+        self.now_pair: int | None = None
+        self.generations: list[int | None] = []  # pair stamp each generation worked on
+        self.delivered: list[tuple[str, int]] = []
+        self.published: list[tuple[int, int]] = []  # (t, generation count at publish)
+        self.ticks: list[tuple[str, int, int]] = []  # (name, t, generations visible)
+        self._visible = 0
+
+    def deliver(self, record):
+        self.delivered.append((type(record).__name__, record.stamp_ns))
+        if isinstance(record, StereoPair):
+            self.now_pair = record.stamp_ns
+
+    def generation(self):
+        self.generations.append(self.now_pair)
+        return self.evals
+
+    def publish(self, t_ns):
+        self._visible = len(self.generations)
+        self.published.append((t_ns, self._visible))
+
+    def tick(self, name, t_ns):
+        self.ticks.append((name, t_ns, self._visible))
+
+
+def frames(n: int, period_ms: int = 100) -> list[object]:
+    out: list[object] = []
+    for i in range(n):
+        out.append(OdomReading(i * period_ms * MS, Pose2D(0.01 * i, 0, 0)))
+        out.append(StereoPair(i * period_ms * MS, IMG, IMG))
+    return out
+
+
+def config(mode: Mode, eps: float = 1e6, gpf: int = 1, ticks=None) -> ClockConfig:
+    return ClockConfig(mode, eps, gpf, 100 * MS, ticks or {})
+
+
+def run(records, pipeline, cfg, end_ns):
+    return list(run_clock(records, pipeline, cfg, end_ns=end_ns))[-1]
+
+
+def test_async_runs_back_to_back_on_newest_pair():
+    rec = Recorder(evals=10_000)  # 10 ms of virtual time at 1e6 evals/s
+    stats = run(frames(5), rec, config(Mode.ASYNC), end_ns=500 * MS)
+    # from t=0 to 500 ms at 10 ms per generation: 50 generations, +1 ending exactly at 500 ms
+    assert stats.generations == 51
+    assert stats.evaluations == 51 * 10_000
+    # generation k starts at 10k ms and must work on the newest pair stamped <= its start
+    for k, seen in enumerate(rec.generations):
+        assert seen == min(k * 10 // 100, 4) * 100 * MS
+
+
+def test_per_frame_runs_exactly_n_generations_per_frame_even_when_lagging():
+    rec = Recorder(evals=60_000)  # 60 ms per generation, 3 per frame = 180 ms > 100 ms period
+    stats = run(frames(4), rec, config(Mode.PER_FRAME, gpf=3), end_ns=10_000 * MS)
+    assert stats.frames == 4
+    assert rec.generations == [s * 100 * MS for s in range(4) for _ in range(3)]
+
+
+def test_sync_sees_images_one_period_late_and_publishes_after_processing():
+    rec = Recorder(evals=50_000)  # 50 ms per generation
+    run(frames(3), rec, config(Mode.SYNC, gpf=2), end_ns=1000 * MS)
+    # first frame (stamped 0) is complete at 100 ms; 2 generations → published at 200 ms
+    assert rec.published[0] == (200 * MS, 2)
+    assert rec.generations[:2] == [0, 0]
+    # odometry is not delayed: the first odometry reading is delivered before the first image
+    assert rec.delivered[0] == ("OdomReading", 0)
+
+
+def test_ticks_see_only_published_population():
+    rec = Recorder(evals=30_000)  # 30 ms generations
+    run(frames(2), rec, config(Mode.SYNC, gpf=2, ticks={"planner": 100 * MS}), end_ns=400 * MS)
+    # frame 0 available at 100 ms, its two generations end at 160 ms: the tick at 100 ms sees
+    # nothing, the tick at 200 ms sees the two generations.
+    visible = {t // MS: v for name, t, v in rec.ticks}
+    assert visible[100] == 0
+    assert visible[200] == 2
+    assert sorted(visible) == [0, 100, 200, 300, 400]
+
+
+def test_async_reacts_sooner_than_sync():
+    def first_publish_with(mode, gpf):
+        rec = Recorder(evals=5_000)
+        run(frames(3), rec, config(mode, gpf=gpf), end_ns=300 * MS)
+        return rec.published[0][0]
+
+    assert first_publish_with(Mode.ASYNC, 1) < first_publish_with(Mode.SYNC, 1)
+
+
+def test_deterministic_and_bounded():
+    a, b = Recorder(), Recorder()
+    run(frames(5), a, config(Mode.ASYNC, ticks={"s": 33 * MS}), end_ns=500 * MS)
+    run(frames(5), b, config(Mode.ASYNC, ticks={"s": 33 * MS}), end_ns=500 * MS)
+    assert a.ticks == b.ticks and a.generations == b.generations
+    with pytest.raises(ValueError, match="evals_per_second"):
+        run(frames(1), Recorder(), config(Mode.ASYNC, eps=0), end_ns=MS)
+
+
+def test_empty_log_runs_nothing():
+    rec = Recorder()
+    assert list(run_clock([], rec, config(Mode.ASYNC), end_ns=MS)) == []
