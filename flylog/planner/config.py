@@ -1,0 +1,128 @@
+"""Configuration of the harmonic-function planner (the ``[planner]`` table)."""
+
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import dataclass
+
+from flylog.config import param
+
+
+class Relaxation(enum.Enum):
+    """Which implementation of the red–black SOR sweep the planner runs."""
+
+    NUMBA = "numba"
+    NUMPY = "numpy"
+
+
+@dataclass(frozen=True)
+class PlannerConfig:
+    """The grid, its relaxation, obstacle detection from flies, and the unicycle steering."""
+
+    extent: float = param(
+        20.0, help="side of the square grid over the odometric frame", unit="m", min=0.5
+    )
+    cell_size: float = param(0.1, help="side of one grid cell", unit="m", min=0.005)
+    sweeps_per_tick: int = param(
+        40, help="red–black SOR sweeps run at each planner tick", min=1, max=100_000
+    )
+    omega: float = param(
+        1.9, help="SOR over-relaxation factor (1 = Gauss–Seidel; must stay below 2)", min=0.5
+    )
+    relaxation: Relaxation = param(
+        Relaxation.NUMBA, help="implementation of the sweep: 'numba' or the 'numpy' reference"
+    )
+    tick_rate: float = param(10.0, help="planner ticks per second", unit="Hz", min=0.01)
+    density_radius: float = param(
+        0.1,
+        help="half-width of the square window over which the fly density is measured",
+        unit="m",
+        min=0.0,
+    )
+    density_threshold: float = param(
+        30.0,
+        help="obstacle flies per square metre (over the density window) that make an obstacle",
+        unit="1/m^2",
+        min=0.0,
+    )
+    robot_radius: float = param(
+        0.3, help="obstacles are inflated by this radius", unit="m", min=0.0
+    )
+    escape_rise: float = param(
+        0.1,
+        help="extra Dirichlet value at detected cells, falling to 1 at the obstacle's skin, so "
+        "a robot inside an inflated obstacle is steered out (0 = a flat 1, as in the paper)",
+        min=0.0,
+        max=1.0,
+    )
+    clear_free_cells: bool = param(
+        True,
+        help="forget obstacle cells that the cameras see as free (in view, not occluded)",
+    )
+    clear_after_views: int = param(
+        3,
+        help="consecutive updates a remembered obstacle cell must be seen free to be cleared",
+        min=1,
+        max=10_000,
+    )
+    view_range: float = param(
+        6.0, help="default camera view range for obstacle updates", unit="m", min=0.0
+    )
+    max_linear_speed: float = param(0.5, help="maximum forward speed", unit="m/s", min=0.0)
+    max_angular_speed: float = param(1.0, help="maximum turn rate", unit="rad/s", min=0.0)
+    heading_gain: float = param(
+        2.0, help="turn rate per radian of heading error", unit="1/s", min=0.0
+    )
+    goal_tolerance: float = param(
+        0.2, help="distance to the goal at which it counts as reached", unit="m", min=0.0
+    )
+    stuck_time: float = param(
+        20.0,
+        help="time without progress towards the goal after which the status is STUCK",
+        unit="s",
+        min=0.0,
+    )
+    stuck_progress: float = param(
+        0.1,
+        help="decrease of the best distance to the goal that counts as progress",
+        unit="m",
+        min=0.0,
+    )
+    path_max_steps: int = param(
+        500, help="bound on the gradient-descent steps of the planned path", min=1, max=1_000_000
+    )
+    path_step: float = param(
+        0.05, help="length of one gradient-descent step of the planned path", unit="m", min=1e-4
+    )
+
+    def __post_init__(self) -> None:
+        if not self.omega < 2.0:
+            msg = f"omega must be below 2 for SOR to converge, got {self.omega}"
+            raise ValueError(msg)
+        if self.cells < 5:
+            msg = (
+                f"extent {self.extent} m at cell size {self.cell_size} m gives {self.cells} "
+                "cells a side; need at least 5"
+            )
+            raise ValueError(msg)
+
+    @property
+    def cells(self) -> int:
+        """Cells along each side of the square grid."""
+        return max(1, round(self.extent / self.cell_size))
+
+    @property
+    def tick_period(self) -> float:
+        """Seconds between planner ticks."""
+        return 1.0 / self.tick_rate
+
+    @property
+    def inflation_cells(self) -> float:
+        """The robot radius in cells."""
+        return self.robot_radius / self.cell_size
+
+    @property
+    def density_window_cells(self) -> int:
+        """Half-width of the density window in cells (0 = the cell alone)."""
+        return math.floor(self.density_radius / self.cell_size + 0.5)

@@ -1,0 +1,157 @@
+"""Obstacle cells from obstacle flies: density, the cameras' view, occlusion, inflation.
+
+Pure functions over grids; :class:`~flylog.planner.planner.HarmonicPlanner` keeps the memory.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from flylog.geometry import Pose2D
+from flylog.planner.grid import GridGeometry
+
+
+def fly_counts(geometry: GridGeometry, points_xy: np.ndarray) -> np.ndarray:
+    """(H, W) int64: how many points (N, 2+) fall in each cell (points off the grid are
+    dropped)."""
+    pts = np.asarray(points_xy, dtype=np.float64)
+    if pts.ndim != 2 or pts.shape[1] < 2:
+        msg = f"obstacle points must be (M, 2) or (M, 3), got shape {pts.shape}"
+        raise ValueError(msg)
+    rows, cols, inside = geometry.cells_of(pts)
+    flat = rows[inside] * geometry.cells + cols[inside]
+    counts = np.bincount(flat, minlength=geometry.cells * geometry.cells)
+    return counts.reshape(geometry.shape)
+
+
+def box_sum(counts: np.ndarray, half_width: int) -> np.ndarray:
+    """Sum of ``counts`` over the (2r+1) x (2r+1) window around each cell (window clipped
+    at the grid edges), through an integral image of the zero-padded counts."""
+    if half_width <= 0:
+        return counts.astype(np.int64, copy=True)
+    k = 2 * half_width + 1
+    h, w = counts.shape
+    integral = np.zeros((h + k, w + k), dtype=np.int64)
+    integral[1:, 1:] = np.pad(counts, half_width).cumsum(axis=0).cumsum(axis=1)
+    return integral[k:, k:] - integral[:h, k:] - integral[k:, :w] + integral[:h, :w]
+
+
+def dense_cells(
+    counts: np.ndarray, cell_size: float, half_width: int, threshold: float
+) -> np.ndarray:
+    """(H, W) bool: cells holding at least one fly whose window density (flies per m² over
+    the (2r+1)² window) reaches ``threshold``. Requiring a fly in the cell itself keeps the
+    obstacle where the flies are (the window does not smear it); the window rejects
+    isolated flies."""
+    window_area = ((2 * half_width + 1) * cell_size) ** 2
+    density = box_sum(counts, half_width) / window_area
+    return (counts > 0) & (density >= threshold)
+
+
+def polar_of_cells(
+    geometry: GridGeometry, pose: Pose2D, rows: slice = slice(None), cols: slice = slice(None)
+) -> tuple[np.ndarray, np.ndarray]:
+    """(range, bearing) of the cell centres in ``[rows, cols]`` from the robot; bearing
+    relative to its heading, in [-pi, pi]."""
+    ox, oy = geometry.origin
+    centres = (np.arange(geometry.cells) + 0.5) * geometry.cell_size
+    dx = (ox + centres[cols])[None, :] - pose.x
+    dy = (oy + centres[rows])[:, None] - pose.y
+    c, s = math.cos(pose.theta), math.sin(pose.theta)
+    # the centres in the robot's frame: the bearing needs no wrapping
+    forward, left = c * dx + s * dy, c * dy - s * dx
+    return np.hypot(dx, dy), np.arctan2(left, forward)
+
+
+def view_mask(
+    rng: np.ndarray, bearing: np.ndarray, half_fov: float, view_range: float
+) -> np.ndarray:
+    """(H, W) bool: cell centres inside the cameras' view sector."""
+    return (rng <= view_range) & (np.abs(bearing) <= half_fov)
+
+
+def seen_free(
+    in_view: np.ndarray,
+    detected: np.ndarray,
+    rng: np.ndarray,
+    bearing: np.ndarray,
+    half_fov: float,
+    cell_size: float,
+    view_range: float,
+) -> np.ndarray:
+    """(H, W) bool: cells in view, not detected, and nearer than the first detected obstacle
+    in their bearing (cells in an obstacle's shadow are not seen, so are not free).
+
+    Bearings are binned at the angle one cell subtends at the view range; each bin's shadow
+    starts at the nearest detection in it or its two neighbours, less one cell (the
+    detection's own extent)."""
+    width = max(cell_size / max(view_range, cell_size), 1e-6)
+    n_bins = max(1, math.ceil(2.0 * half_fov / width))
+    bins = np.clip(((bearing + half_fov) / width).astype(np.int64), 0, n_bins - 1)
+    nearest = np.full(n_bins + 2, np.inf)
+    hits = detected & in_view
+    np.minimum.at(nearest, bins[hits] + 1, rng[hits])
+    # an obstacle cell spans a little more than its bin: its neighbours share its shadow
+    shadow = np.minimum(np.minimum(nearest[:-2], nearest[1:-1]), nearest[2:])
+    return in_view & ~detected & (rng < shadow[bins] - cell_size)
+
+
+def disk_offsets(radius_cells: float) -> list[tuple[int, int]]:
+    """(di, dj) of every cell whose centre lies within ``radius_cells`` of the origin."""
+    r = math.floor(radius_cells + 1e-9)  # 0.3 / 0.1 is 2.999...: keep the 3-cell ring
+    return [
+        (di, dj)
+        for di in range(-r, r + 1)
+        for dj in range(-r, r + 1)
+        if di * di + dj * dj <= radius_cells * radius_cells + 1e-9
+    ]
+
+
+def distance_within(mask: np.ndarray, radius_cells: float) -> np.ndarray:
+    """(H, W) float64: distance (in cells, centre to centre) from each cell to the nearest
+    set cell of ``mask``, where that is within ``radius_cells``; inf elsewhere."""
+    out = np.full(mask.shape, np.inf)
+    h, w = mask.shape
+    for di, dj in disk_offsets(radius_cells):
+        # out[i + di, j + dj] = min(out, |(di, dj)|) where mask[i, j], over the overlap
+        si0, si1 = max(0, -di), min(h, h - di)
+        sj0, sj1 = max(0, -dj), min(w, w - dj)
+        if si0 >= si1 or sj0 >= sj1:
+            continue
+        dst = out[si0 + di : si1 + di, sj0 + dj : sj1 + dj]
+        src = mask[si0:si1, sj0:sj1]
+        np.minimum(dst, np.where(src, math.hypot(di, dj), np.inf), out=dst)
+    return out
+
+
+def inflate(mask: np.ndarray, radius_cells: float) -> np.ndarray:
+    """``mask`` dilated by a disk of ``radius_cells`` (a cell is set if any set cell's centre
+    lies within the radius of its centre)."""
+    return np.isfinite(distance_within(mask, radius_cells))
+
+
+def skin(mask: np.ndarray) -> np.ndarray:
+    """Cells of ``mask`` with a 4-neighbour outside it (cells off the grid count as inside)."""
+    out = np.zeros_like(mask)
+    out[1:, :] |= ~mask[:-1, :]
+    out[:-1, :] |= ~mask[1:, :]
+    out[:, 1:] |= ~mask[:, :-1]
+    out[:, :-1] |= ~mask[:, 1:]
+    return out & mask
+
+
+def obstacle_values(distance: np.ndarray, radius_cells: float, rise: float) -> np.ndarray:
+    """Dirichlet values of the inflated obstacle cells (where ``distance`` is finite).
+
+    The skin (cells touching free space) is 1, as the paper's obstacles; deeper cells rise
+    linearly towards 1 + ``rise`` at the detected cells, so a robot inside an inflated
+    obstacle has a gradient out of it. Free space only touches the skin, the border (1) and
+    the goal (0): it stays below 1 and its descent can end nowhere but at the goal."""
+    obstacles = np.isfinite(distance)
+    r = math.floor(radius_cells + 1e-9)
+    d = np.minimum(distance, r + 1.0)  # no inf * 0 off the obstacles
+    values = 1.0 + rise * (r + 1.0 - d) / (r + 1.0)
+    values[skin(obstacles)] = 1.0
+    return np.where(obstacles, values, 0.0)

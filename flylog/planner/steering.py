@@ -1,0 +1,138 @@
+"""From the potential's gradient to unicycle velocity commands, a status and a path."""
+
+from __future__ import annotations
+
+import enum
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from flylog.geometry import Pose2D
+from flylog.geometry.poses import wrap_angle
+
+# Below this gradient norm (potential units per metre) the descent direction is noise.
+FLAT_GRADIENT = 1e-12
+
+
+class Status(enum.Enum):
+    """What the planner says about the robot's progress."""
+
+    DRIVING = "driving"
+    GOAL_REACHED = "goal_reached"
+    STUCK = "stuck"
+
+
+@dataclass(frozen=True, slots=True)
+class Command:
+    """Unicycle velocities for the robot and the planner's status."""
+
+    linear: float  # m/s, forward
+    angular: float  # rad/s, counter-clockwise
+    status: Status
+
+
+class PathEnd(enum.Enum):
+    """Which bound stopped a gradient-descent path."""
+
+    GOAL = "goal"  # came within the goal tolerance
+    MAX_STEPS = "max_steps"  # ran out of steps
+    FLAT = "flat"  # the gradient vanished (unconverged or saddle)
+    LEFT_GRID = "left_grid"  # stepped off the grid
+    OBSTACLE = "obstacle"  # stepped into an obstacle cell
+
+
+@dataclass(frozen=True, slots=True)
+class PlannedPath:
+    """The path the robot would follow now: (K, 2) points in odom, from the robot on."""
+
+    points: np.ndarray
+    end: PathEnd
+
+
+def unicycle_command(
+    pose: Pose2D,
+    direction_xy: tuple[float, float],
+    *,
+    max_linear: float,
+    max_angular: float,
+    heading_gain: float,
+) -> tuple[float, float]:
+    """(linear, angular) turning the robot towards ``direction_xy`` (any length): a
+    proportional, saturated turn, and forward speed ``max_linear·cos(error)`` that drops to
+    zero when the direction is behind (the robot then turns in place)."""
+    dx, dy = direction_xy
+    if math.hypot(dx, dy) <= FLAT_GRADIENT:
+        return 0.0, 0.0
+    error = wrap_angle(math.atan2(dy, dx) - pose.theta)
+    angular = min(max(heading_gain * error, -max_angular), max_angular)
+    linear = max_linear * max(0.0, math.cos(error))
+    return linear, angular
+
+
+@dataclass
+class ProgressMonitor:
+    """STUCK when the best distance to the goal has not improved by ``progress`` metres for
+    ``stuck_time`` seconds. Euclidean distance can grow on a detour, so ``stuck_time``
+    should exceed the longest detour the scene needs."""
+
+    stuck_time: float
+    progress: float
+    best_distance: float = math.inf
+    best_time: float | None = None
+
+    def update(self, distance: float, t: float) -> bool:
+        """Record the distance at time t; whether the robot is stuck now."""
+        if self.best_time is None or distance <= self.best_distance - self.progress:
+            self.best_distance = distance
+            self.best_time = t
+            return False
+        return t - self.best_time >= self.stuck_time
+
+    def reset(self) -> None:
+        self.best_distance = math.inf
+        self.best_time = None
+
+
+def descend(
+    start_xy: tuple[float, float],
+    goal_xy: tuple[float, float],
+    gradient: Callable[[float, float], tuple[float, float]],
+    blocked: Callable[[float, float], bool | None],
+    *,
+    step: float,
+    max_steps: int,
+    goal_tolerance: float,
+) -> PlannedPath:
+    """Follow −∇U from ``start_xy`` in steps of ``step`` metres (normalised gradient), at most
+    ``max_steps`` steps. ``blocked(x, y)`` is None off the grid, True in an obstacle cell.
+    The path ends with the goal itself when it comes within ``goal_tolerance``. A path that
+    starts inside an obstacle cell (an obstacle seen within the robot radius) may leave it;
+    it ends when it enters one from free space."""
+    x, y = start_xy
+    escaping = bool(blocked(x, y))
+    pts = [(x, y)]
+    end = PathEnd.MAX_STEPS
+    gx_goal, gy_goal = goal_xy
+    for _ in range(max_steps):
+        if math.hypot(x - gx_goal, y - gy_goal) <= goal_tolerance:
+            pts.append((gx_goal, gy_goal))
+            end = PathEnd.GOAL
+            break
+        gx, gy = gradient(x, y)
+        norm = math.hypot(gx, gy)
+        if norm <= FLAT_GRADIENT:
+            end = PathEnd.FLAT
+            break
+        x, y = x - step * gx / norm, y - step * gy / norm
+        state = blocked(x, y)
+        if state is None:
+            end = PathEnd.LEFT_GRID
+            break
+        pts.append((x, y))
+        if state and not escaping:
+            end = PathEnd.OBSTACLE
+            break
+        escaping = escaping and state
+    return PlannedPath(np.asarray(pts, dtype=np.float64).reshape(-1, 2), end)

@@ -1,0 +1,228 @@
+import math
+
+import numpy as np
+import pytest
+
+from flylog.config import from_mapping
+from flylog.errors import ConfigError
+from flylog.geometry import Pose2D
+from flylog.planner import (
+    HarmonicPlanner,
+    PathEnd,
+    PlannerConfig,
+    Relaxation,
+    RelaxEnd,
+    Status,
+)
+from flylog.planner.steering import unicycle_command
+
+SMALL = PlannerConfig(extent=6.0, cell_size=0.1)
+
+
+def _converged(cfg: PlannerConfig = SMALL, goal=(2.0, 0.0)) -> HarmonicPlanner:
+    p = HarmonicPlanner.centred_on(cfg, (0.0, 0.0), goal)
+    assert p.relax_until(1e-10, 20_000).end is RelaxEnd.CONVERGED
+    return p
+
+
+def test_config_loads_from_toml_mapping_and_checks_ranges():
+    cfg = from_mapping(PlannerConfig, {"omega": 1.5, "relaxation": "numpy"}, source="s.toml")
+    assert cfg.omega == 1.5 and cfg.relaxation is Relaxation.NUMPY
+    assert PlannerConfig().cells == 200
+    with pytest.raises(ConfigError, match=r"s.toml: omega must be below 2"):
+        from_mapping(PlannerConfig, {"omega": 2.0}, source="s.toml")
+    with pytest.raises(ConfigError, match=r"field 'sweeps_per_tick': must be at least 1"):
+        from_mapping(PlannerConfig, {"sweeps_per_tick": 0}, source="s.toml")
+
+
+def test_goal_off_the_grid_is_a_config_error():
+    with pytest.raises(ConfigError, match=r"goal \(5.0, 0.0\) lies outside the planner grid"):
+        HarmonicPlanner.centred_on(SMALL, (0.0, 0.0), (5.0, 0.0))
+
+
+def test_relax_keeps_values_between_ticks_and_converges():
+    p = HarmonicPlanner.centred_on(SMALL, (0.0, 0.0), (2.0, 0.0))
+    changes = [p.relax() for _ in range(30)]
+    assert changes[-1] < changes[0]
+    result = p.relax_until(1e-10, 20_000)
+    assert result.end is RelaxEnd.CONVERGED and result.max_change <= 1e-10
+    assert p.relax_until(0.0, 7).end is RelaxEnd.MAX_SWEEPS
+    assert p.relax_until(0.0, 7).sweeps == 7
+
+
+@pytest.mark.parametrize("kind", list(Relaxation), ids=lambda k: k.value)
+def test_both_relaxations_give_the_same_planner_field(kind):
+    cfg = PlannerConfig(extent=6.0, cell_size=0.1, relaxation=kind)
+    p = HarmonicPlanner.centred_on(cfg, (0.0, 0.0), (2.0, 0.5))
+    ref = HarmonicPlanner.centred_on(SMALL, (0.0, 0.0), (2.0, 0.5))
+    for _ in range(5):
+        assert p.relax() == pytest.approx(ref.relax(), abs=1e-14)
+    np.testing.assert_allclose(p.potential, ref.potential, atol=1e-7)
+
+
+def test_command_turns_the_robot_towards_minus_gradient():
+    p = _converged()
+    gx, gy = p.gradient(0.0, 0.0)
+    # −∇U points at the goal cell's centre (2.05, 0.05), the Dirichlet 0 cell
+    heading = math.atan2(-gy, -gx)
+    assert heading == pytest.approx(math.atan2(0.05, 2.05), abs=0.01)
+    facing = p.command(Pose2D(0.0, 0.0, 0.0), 0.0)
+    assert facing.status is Status.DRIVING
+    assert facing.linear == pytest.approx(SMALL.max_linear_speed * math.cos(heading))
+    assert facing.angular == pytest.approx(SMALL.heading_gain * heading)
+    left = p.command(Pose2D(0.0, 0.0, math.pi / 2), 0.1)  # goal on the right: turn right
+    assert left.angular == pytest.approx(-SMALL.max_angular_speed)
+    assert left.linear == pytest.approx(0.0, abs=0.02)
+    right = p.command(Pose2D(0.0, 0.0, -0.3), 0.2)  # goal a little to the left
+    assert right.angular > 0.0 and right.linear > 0.9 * SMALL.max_linear_speed
+
+
+def test_unicycle_command_saturates_and_stops_on_flat_gradient():
+    kw = {"max_linear": 0.5, "max_angular": 1.0, "heading_gain": 2.0}
+    assert unicycle_command(Pose2D(), (1.0, 0.0), **kw) == pytest.approx((0.5, 0.0))
+    assert unicycle_command(Pose2D(), (-1.0, 0.0), **kw) == pytest.approx((0.0, 1.0))
+    lin, ang = unicycle_command(Pose2D(), (math.cos(0.2), math.sin(0.2)), **kw)
+    assert (lin, ang) == pytest.approx((0.5 * math.cos(0.2), 0.4))
+    assert unicycle_command(Pose2D(), (0.0, 0.0), **kw) == (0.0, 0.0)
+
+
+def test_goal_reached_within_tolerance():
+    p = _converged()
+    cmd = p.command(Pose2D(2.0 - 0.15, 0.1, 1.0), 0.0)  # 0.18 m from the goal
+    assert cmd == type(cmd)(0.0, 0.0, Status.GOAL_REACHED)
+    assert p.command(Pose2D(2.0 - 0.25, 0.0, 0.0), 0.0).status is Status.DRIVING
+
+
+def test_stuck_after_the_configured_time_without_progress():
+    cfg = PlannerConfig(extent=6.0, cell_size=0.1, stuck_time=3.0, stuck_progress=0.1)
+    p = _converged(cfg)
+    pose = Pose2D(-1.0, 0.0, 0.0)
+    statuses = [p.command(pose, t).status for t in np.arange(0.0, 4.0, 0.5)]
+    # best distance set at t=0; stuck from t=3.0 on
+    assert statuses == [Status.DRIVING] * 6 + [Status.STUCK] * 2
+    # progress (more than 0.1 m closer) clears it; a small creep does not
+    assert p.command(Pose2D(-0.95, 0.0, 0.0), 4.0).status is Status.STUCK
+    assert p.command(Pose2D(-0.8, 0.0, 0.0), 4.5).status is Status.DRIVING
+    assert p.command(Pose2D(-0.8, 0.0, 0.0), 7.4).status is Status.DRIVING
+    assert p.command(Pose2D(-0.8, 0.0, 0.0), 7.5).status is Status.STUCK
+
+
+def test_path_is_bounded_and_says_which_bound_stopped_it():
+    cfg = PlannerConfig(extent=6.0, cell_size=0.1, path_max_steps=10, path_step=0.05)
+    p = _converged(cfg)
+    path = p.trace_path(Pose2D(-2.0, 0.0, 0.0))
+    assert path.end is PathEnd.MAX_STEPS
+    assert path.points.shape == (11, 2)
+    assert path.points[-1] == pytest.approx((-1.5, 0.0), abs=0.01)
+    # a fresh grid far from the goal is flat (log guess is not flat, so flatten it)
+    flat = HarmonicPlanner.centred_on(cfg, (0.0, 0.0), (2.0, 0.0))
+    flat._u[1:-1, 1:-1] = 1.0  # private on purpose: an unrelaxed all-ones start
+    flat._apply_dirichlet()
+    got = flat.trace_path(Pose2D(-2.0, 0.0, 0.0))
+    assert got.end is PathEnd.FLAT and got.points.shape == (1, 2)
+    assert flat.command(Pose2D(-2.0, 0.0, 0.0), 0.0).linear == 0.0
+
+
+def test_path_into_obstacle_or_off_grid_is_reported():
+    cfg = PlannerConfig(extent=6.0, cell_size=0.1, robot_radius=0.0)
+    p = _converged(cfg)
+    p._u[:] = p.geometry.centres()[0] / 10.0  # private on purpose: U rises along +x
+    p._grad_cache = None
+    assert p.trace_path(Pose2D(0.0, 0.0, 0.0)).end is PathEnd.LEFT_GRID
+    wall = np.array([[-1.05, y] for y in np.arange(-1.0, 1.0, 0.01)])
+    p.update_obstacles(wall, Pose2D(0.0, 0.0, math.pi), 0.8)
+    p._u[1:-1, 1:-1] = (p.geometry.centres()[0] / 10.0 + 0.5)[1:-1, 1:-1]
+    p._grad_cache = None
+    got = p.trace_path(Pose2D(0.0, 0.0, 0.0))
+    assert got.end is PathEnd.OBSTACLE
+    assert got.points[-1][0] == pytest.approx(-1.0, abs=0.06)
+
+
+def _simulate(cfg: PlannerConfig, wall: np.ndarray, start: Pose2D, goal, max_time: float):
+    """Closed loop: planner ticks at cfg.tick_rate, unicycle integrated at 10x that rate."""
+    p = HarmonicPlanner.centred_on(cfg, (0.0, 0.0), goal)
+    pose = start
+    dt = cfg.tick_period / 10
+    track = [(pose.x, pose.y)]
+    inside = 0
+    t = 0.0
+    status = Status.DRIVING
+    while t < max_time:
+        p.update_obstacles(wall, pose, math.radians(30.0))
+        p.relax()
+        cmd = p.command(pose, t)
+        status = cmd.status
+        if status is not Status.DRIVING:
+            break
+        for _ in range(10):
+            th = pose.theta + cmd.angular * dt
+            pose = Pose2D(
+                pose.x + cmd.linear * dt * math.cos(pose.theta),
+                pose.y + cmd.linear * dt * math.sin(pose.theta),
+                math.atan2(math.sin(th), math.cos(th)),
+            )
+            track.append((pose.x, pose.y))
+            i, j = p.geometry.cell_of(pose.x, pose.y)
+            inside += int(p.detected_mask[i, j])
+        t += cfg.tick_period
+    return p, status, np.array(track), inside, t
+
+
+@pytest.mark.parametrize("kind", list(Relaxation), ids=lambda k: k.value)
+def test_end_to_end_robot_drives_around_a_wall_to_the_goal(kind):
+    cfg = PlannerConfig(extent=10.0, cell_size=0.1, relaxation=kind, sweeps_per_tick=40)
+    # a wall 3 m wide across the straight line from start to goal, seen by the cameras
+    ys = np.arange(-1.5, 1.5, 0.02)
+    wall = np.column_stack([np.zeros_like(ys), ys, np.full_like(ys, 0.3)])
+    start, goal = Pose2D(-3.0, 0.2, math.pi / 2), (3.0, 0.0)
+    p, status, track, inside, t = _simulate(cfg, wall, start, goal, max_time=120.0)
+    assert status is Status.GOAL_REACHED, f"{status} at t={t:.1f}s, at {track[-1]}"
+    assert np.hypot(*(track[-1] - goal)) <= cfg.goal_tolerance + 0.06
+    assert inside == 0
+    # the wall was seen and went around, not through
+    assert p.detected_mask.any()
+    crossing = track[np.argmin(np.abs(track[:, 0]))]
+    assert abs(crossing[1]) > 1.5 + cfg.robot_radius - 0.1
+    # and the track never came closer to a wall fly than the inflation allows, less a cell
+    d = np.min(np.hypot(track[:, None, 0] - wall[None, :, 0], track[:, None, 1] - wall[None, :, 1]))
+    assert d > cfg.robot_radius - cfg.cell_size
+
+
+@pytest.mark.parametrize("rise", [0.1, 0.0])
+def test_path_from_inside_an_inflated_obstacle_leaves_it(rise):
+    cfg = PlannerConfig(extent=6.0, cell_size=0.1, robot_radius=0.5, escape_rise=rise)
+    p = _converged(cfg)
+    robot = Pose2D(-1.0, 0.0, 0.0)
+    # flies 0.3 m to the robot's left: the robot now sits in the inflated obstacle
+    flies = np.column_stack([np.full(20, -1.0), np.linspace(0.26, 0.34, 20)])
+    p.update_obstacles(flies, robot, math.radians(100.0))
+    i, j = p.geometry.cell_of(robot.x, robot.y)
+    assert p.obstacle_mask[i, j]
+    p.relax_until(1e-10, 20_000)
+    got = p.trace_path(robot)
+    if rise == 0.0:  # a flat 1 inside the obstacle: no way out
+        assert got.end is PathEnd.FLAT
+        assert p.command(robot, 0.0).linear == 0.0
+        return
+    assert got.end is PathEnd.GOAL
+    cells = [p.geometry.cell_of(x, y) for x, y in got.points]
+    inside = [bool(p.obstacle_mask[c]) for c in cells]
+    first_free = inside.index(False)
+    assert not any(inside[first_free:])
+    # moving away from the flies: the first steps go down (−y) and on towards the goal
+    assert got.points[first_free][1] < 0.0
+
+
+def test_cleared_obstacles_relax_back_to_the_obstacle_free_field():
+    p = _converged()
+    fresh = _converged()
+    wall = np.column_stack([np.full(100, 1.0), np.linspace(-0.5, 0.5, 100)])
+    p.update_obstacles(wall, Pose2D(0.0, 0.0, 0.0), 0.8)
+    assert p.obstacle_mask.any()
+    p.relax_until(1e-10, 20_000)
+    assert np.abs(p.potential - fresh.potential).max() > 0.01
+    p.clear_obstacles()
+    assert not p.obstacle_mask.any() and not p.detected_mask.any()
+    assert p.potential.max() == 1.0  # the freed core (1 + rise) is clipped back to 1
+    p.relax_until(1e-10, 20_000)
+    np.testing.assert_allclose(p.potential, fresh.potential, atol=1e-6)

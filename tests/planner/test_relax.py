@@ -1,0 +1,113 @@
+import numpy as np
+import pytest
+
+from flylog.planner import Relaxation, sor_sweeps, sor_sweeps_numba, sor_sweeps_numpy
+
+IMPLS = [sor_sweeps_numba, sor_sweeps_numpy]
+IDS = ["numba", "numpy"]
+
+
+def _box(h: int, w: int) -> np.ndarray:
+    fixed = np.zeros((h, w), dtype=bool)
+    fixed[[0, -1], :] = True
+    fixed[:, [0, -1]] = True
+    return fixed
+
+
+def _has_lower_neighbour(u: np.ndarray, i: int, j: int) -> bool:
+    return min(u[i - 1, j], u[i + 1, j], u[i, j - 1], u[i, j + 1]) < u[i, j]
+
+
+def test_numba_equals_numpy_sweep_for_sweep():
+    rng = np.random.default_rng(7)
+    u = rng.random((23, 31))
+    fixed = _box(23, 31) | (rng.random((23, 31)) < 0.1)
+    a, b = u.copy(), u.copy()
+    for _ in range(6):
+        ca = sor_sweeps_numba(a, fixed, 1.7, 1)
+        cb = sor_sweeps_numpy(b, fixed, 1.7, 1)
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-14)
+        assert ca == pytest.approx(cb, rel=0, abs=1e-14)
+        assert ca > 0.0
+    # fixed cells are never written
+    np.testing.assert_array_equal(a[fixed], u[fixed])
+
+
+@pytest.mark.parametrize("sweep", IMPLS, ids=IDS)
+def test_zero_sweeps_change_nothing(sweep):
+    u = np.random.default_rng(1).random((8, 9))
+    before = u.copy()
+    assert sweep(u, _box(8, 9), 1.5, 0) == 0.0
+    np.testing.assert_array_equal(u, before)
+
+
+@pytest.mark.parametrize("sweep", IMPLS, ids=IDS)
+@pytest.mark.parametrize("height", [3, 12])
+def test_strip_converges_to_linear_solution(sweep, height):
+    # Dirichlet 1 at the left end, 0 at the right, linear along the long sides: the discrete
+    # (and continuous) harmonic function is the linear ramp.
+    w = 41
+    ramp = np.linspace(1.0, 0.0, w)
+    u = np.zeros((height, w))
+    u[0, :] = ramp
+    u[-1, :] = ramp
+    u[:, 0] = 1.0
+    u[:, -1] = 0.0
+    change = sweep(u, _box(height, w), 1.85, 3000)
+    assert change < 1e-12
+    np.testing.assert_allclose(u, np.broadcast_to(ramp, u.shape), atol=1e-10)
+
+
+@pytest.mark.parametrize("sweep", IMPLS, ids=IDS)
+@pytest.mark.parametrize("omega", [1.0, 1.8])
+def test_gauss_seidel_and_sor_reach_the_same_solution(sweep, omega):
+    fixed = _box(25, 25)
+    fixed[12, 12] = True
+    u = np.ones((25, 25))
+    u[12, 12] = 0.0
+    sweep(u, fixed, omega, 4000)
+    ref = np.ones((25, 25))
+    ref[12, 12] = 0.0
+    sor_sweeps_numba(ref, fixed, 1.9, 4000)
+    np.testing.assert_allclose(u, ref, atol=1e-9)
+    # the symmetric problem has a symmetric solution
+    np.testing.assert_allclose(u, u.T, atol=1e-9)
+    np.testing.assert_allclose(u, u[::-1, :], atol=1e-9)
+
+
+@pytest.mark.parametrize("sweep", IMPLS, ids=IDS)
+@pytest.mark.parametrize("with_wall", [False, True], ids=["free", "wall"])
+def test_converged_potential_has_no_local_minimum_but_the_goal(sweep, with_wall):
+    n = 30
+    fixed = _box(n, n)
+    if with_wall:
+        fixed[5:25, 15] = True  # a wall between most of the box and the goal
+    goal = (14, 22)
+    fixed[goal] = True
+    u = np.ones((n, n))
+    u[goal] = 0.0
+    assert sweep(u, fixed, 1.9, 5000) < 1e-13
+    free = [(i, j) for i in range(1, n - 1) for j in range(1, n - 1) if not fixed[i, j]]
+    assert all(_has_lower_neighbour(u, i, j) for i, j in free)
+    # steepest descent on the grid from every free cell reaches the goal
+    for start in free:
+        i, j = start
+        for _ in range(n * n):
+            if (i, j) == goal:
+                break
+            nbrs = [(i - 1, j), (i + 1, j), (i, j - 1), (i, j + 1)]
+            i, j = min(nbrs, key=lambda c: u[c])
+            assert not fixed[i, j] or (i, j) == goal
+        assert (i, j) == goal, f"descent from {start} ended at {(i, j)}"
+
+
+def test_sor_sweeps_dispatches_and_checks_types():
+    u = np.random.default_rng(3).random((10, 10))
+    a, b = u.copy(), u.copy()
+    fixed = _box(10, 10)
+    ca = sor_sweeps(a, fixed, 1.5, 3, Relaxation.NUMBA)
+    cb = sor_sweeps(b, fixed, 1.5, 3, Relaxation.NUMPY)
+    np.testing.assert_allclose(a, b, atol=1e-14)
+    assert ca == pytest.approx(cb, abs=1e-14)
+    with pytest.raises(ValueError, match="float64"):
+        sor_sweeps(u.astype(np.float32), fixed, 1.5, 1, Relaxation.NUMBA)
