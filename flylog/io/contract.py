@@ -1,0 +1,199 @@
+"""The MCAP contract: every topic, schema and frame name flylog writes or reads, once.
+
+Foxglove protobuf schemas wherever one fits (so a log opens in Foxglove as it is); JSON
+with a named JSON Schema (``flylog.SonarRanges``, ``flylog.Command``) where none fits.
+Ground truth lives under ``/truth/``; the replay engine never reads it.
+"""
+
+from __future__ import annotations
+
+import enum
+import json
+from types import MappingProxyType
+from typing import Any
+
+import foxglove.messages as fm
+
+# ---- topics ------------------------------------------------------------------------------
+
+LEFT_IMAGE = "/camera/left/image"
+RIGHT_IMAGE = "/camera/right/image"
+LEFT_CALIBRATION = "/camera/left/calibration"
+RIGHT_CALIBRATION = "/camera/right/calibration"
+SONAR = "/sonar"
+ODOM = "/odom"
+TF = "/tf"
+TRUTH_POSE = "/truth/pose"
+TRUTH_SCENE = "/truth/scene"
+FLIES = "/flies"
+FLIES_OVERLAY = "/flies/overlay"
+PLANNER_POTENTIAL = "/planner/potential"
+PLANNER_PATH = "/planner/path"
+PLANNER_COMMAND = "/planner/command"
+
+TRUTH_PREFIX = "/truth/"
+# Made by the reader (flylog.io.pairing), never written: left and right images paired.
+STEREO_PAIRS = "/camera/stereo"
+STEREO_PAIR = "flylog.StereoPair"
+IMAGE_TOPICS = MappingProxyType({"left": LEFT_IMAGE, "right": RIGHT_IMAGE})
+CALIBRATION_TOPICS = MappingProxyType({"left": LEFT_CALIBRATION, "right": RIGHT_CALIBRATION})
+
+# ---- frames ------------------------------------------------------------------------------
+
+ODOM_FRAME = "odom"
+BASE_FRAME = "base_link"
+CAMERA_FRAMES = MappingProxyType({"left": "camera_left", "right": "camera_right"})
+
+
+def sonar_frame(index: int) -> str:
+    """Frame id of the ``index``-th transducer of the sonar ring (``sonar_0`` …)."""
+    return f"sonar_{index}"
+
+
+# ---- schemas -----------------------------------------------------------------------------
+
+RAW_IMAGE = "foxglove.RawImage"
+CAMERA_CALIBRATION = "foxglove.CameraCalibration"
+POSE_IN_FRAME = "foxglove.PoseInFrame"
+FRAME_TRANSFORMS = "foxglove.FrameTransforms"
+SCENE_UPDATE = "foxglove.SceneUpdate"
+POINT_CLOUD = "foxglove.PointCloud"
+IMAGE_ANNOTATIONS = "foxglove.ImageAnnotations"
+GRID = "foxglove.Grid"
+POSES_IN_FRAME = "foxglove.PosesInFrame"
+SONAR_RANGES = "flylog.SonarRanges"
+COMMAND = "flylog.Command"
+
+PROTOBUF = "protobuf"  # schema and message encoding of the Foxglove schemas
+JSON_SCHEMA_ENCODING = "jsonschema"
+JSON_MESSAGE_ENCODING = "json"
+
+TOPIC_SCHEMAS: MappingProxyType[str, str] = MappingProxyType(
+    {
+        LEFT_IMAGE: RAW_IMAGE,
+        RIGHT_IMAGE: RAW_IMAGE,
+        LEFT_CALIBRATION: CAMERA_CALIBRATION,
+        RIGHT_CALIBRATION: CAMERA_CALIBRATION,
+        SONAR: SONAR_RANGES,
+        ODOM: POSE_IN_FRAME,
+        TF: FRAME_TRANSFORMS,
+        TRUTH_POSE: POSE_IN_FRAME,
+        TRUTH_SCENE: SCENE_UPDATE,
+        FLIES: POINT_CLOUD,
+        FLIES_OVERLAY: IMAGE_ANNOTATIONS,
+        PLANNER_POTENTIAL: GRID,
+        PLANNER_PATH: POSES_IN_FRAME,
+        PLANNER_COMMAND: COMMAND,
+    }
+)
+
+# The Foxglove message class of each protobuf schema (its get_schema() gives the bytes).
+FOXGLOVE_TYPES: MappingProxyType[str, type] = MappingProxyType(
+    {
+        RAW_IMAGE: fm.RawImage,
+        CAMERA_CALIBRATION: fm.CameraCalibration,
+        POSE_IN_FRAME: fm.PoseInFrame,
+        FRAME_TRANSFORMS: fm.FrameTransforms,
+        SCENE_UPDATE: fm.SceneUpdate,
+        POINT_CLOUD: fm.PointCloud,
+        IMAGE_ANNOTATIONS: fm.ImageAnnotations,
+        GRID: fm.Grid,
+        POSES_IN_FRAME: fm.PosesInFrame,
+    }
+)
+
+
+class CommandStatus(enum.Enum):
+    """What the planner is doing; the ``status`` of a ``flylog.Command``."""
+
+    DRIVING = "driving"
+    GOAL_REACHED = "goal_reached"
+    STUCK = "stuck"
+
+
+_TIME = {
+    "type": "object",
+    "title": "time",
+    "description": "message time (sec, nsec), the Foxglove JSON time convention",
+    "properties": {
+        "sec": {"type": "integer", "minimum": 0},
+        "nsec": {"type": "integer", "minimum": 0, "maximum": 999999999},
+    },
+    "required": ["sec", "nsec"],
+}
+
+_SONAR_RANGES_SCHEMA: dict[str, Any] = {
+    "$schema": "https://json-schema.org/draft/2020-12/schema",
+    "title": SONAR_RANGES,
+    "description": "One reading cycle of the sonar ring",
+    "type": "object",
+    "properties": {
+        "timestamp": _TIME,
+        "frame_id": {"type": "string", "description": "frame of the mounts (base_link)"},
+        "ranges": {
+            "type": "array",
+            "description": "measured range of each sonar (m); null where it had no echo",
+            "items": {"type": ["number", "null"]},
+        },
+        "fired": {
+            "type": "array",
+            "description": "whether each sonar received an echo",
+            "items": {"type": "boolean"},
+        },
+        "cone_angle": {"type": "number", "description": "full opening angle of a cone (rad)"},
+        "max_range": {"type": "number", "description": "maximum detection range (m)"},
+        "min_range": {"type": "number", "description": "minimum detection range (m)"},
+        "mounts": {
+            "type": "array",
+            "description": "[x (m), y (m), yaw (rad)] of each transducer in frame_id",
+            "items": {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3},
+        },
+    },
+    "required": [
+        "timestamp",
+        "frame_id",
+        "ranges",
+        "fired",
+        "cone_angle",
+        "max_range",
+        "min_range",
+        "mounts",
+    ],
+}
+
+_COMMAND_SCHEMA: dict[str, Any] = {
+    "$schema": "https://json-schema.org/draft/2020-12/schema",
+    "title": COMMAND,
+    "description": "The velocity command the planner issues",
+    "type": "object",
+    "properties": {
+        "timestamp": _TIME,
+        "linear": {"type": "number", "description": "forward velocity (m/s)"},
+        "angular": {"type": "number", "description": "turn rate, counter-clockwise (rad/s)"},
+        "status": {"type": "string", "enum": [s.value for s in CommandStatus]},
+    },
+    "required": ["timestamp", "linear", "angular", "status"],
+}
+
+JSON_SCHEMAS: MappingProxyType[str, bytes] = MappingProxyType(
+    {
+        SONAR_RANGES: json.dumps(_SONAR_RANGES_SCHEMA, indent=1).encode(),
+        COMMAND: json.dumps(_COMMAND_SCHEMA, indent=1).encode(),
+    }
+)
+
+
+def schema_record(name: str) -> tuple[str, str, bytes]:
+    """(name, schema encoding, schema data) of a contract schema, as MCAP stores it."""
+    if name in FOXGLOVE_TYPES:
+        schema = FOXGLOVE_TYPES[name].get_schema()
+        return schema.name, schema.encoding, schema.data
+    if name in JSON_SCHEMAS:
+        return name, JSON_SCHEMA_ENCODING, JSON_SCHEMAS[name]
+    msg = f"schema '{name}' is not part of the flylog MCAP contract"
+    raise KeyError(msg)
+
+
+def message_encoding(schema_name: str) -> str:
+    """The MCAP message encoding of messages with this contract schema."""
+    return JSON_MESSAGE_ENCODING if schema_name in JSON_SCHEMAS else PROTOBUF

@@ -1,0 +1,308 @@
+"""Encoders: pure functions from numpy arrays and flylog records to the messages of the
+contract (Foxglove protobuf messages, or dicts for the JSON topics)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+import foxglove.messages as fm
+import numpy as np
+
+from flylog.geometry import OPTICAL_IN_BASE_QUAT, Pose2D, StereoRig, yaw_quaternion
+from flylog.io import contract
+from flylog.io.records import BoxShape, CylinderShape, Transform
+from flylog.sensors import SonarConfig, SonarReading
+
+_F32 = fm.PackedElementFieldNumericType.Float32
+
+
+def timestamp(stamp_ns: int) -> fm.Timestamp:
+    """A Foxglove timestamp from integer nanoseconds (which must not be negative)."""
+    sec, nsec = _split_ns(stamp_ns)
+    return fm.Timestamp(sec, nsec)
+
+
+def json_time(stamp_ns: int) -> dict[str, int]:
+    """Foxglove's JSON time object ``{"sec", "nsec"}``."""
+    sec, nsec = _split_ns(stamp_ns)
+    return {"sec": sec, "nsec": nsec}
+
+
+def _split_ns(stamp_ns: int) -> tuple[int, int]:
+    stamp_ns = int(stamp_ns)
+    if stamp_ns < 0:
+        msg = f"message times must not be negative, got {stamp_ns} ns"
+        raise ValueError(msg)
+    return divmod(stamp_ns, 1_000_000_000)
+
+
+def _pose(x: float, y: float, z: float, rotation: Sequence[float]) -> fm.Pose:
+    qx, qy, qz, qw = (float(q) for q in rotation)
+    return fm.Pose(
+        position=fm.Vector3(x=float(x), y=float(y), z=float(z)),
+        orientation=fm.Quaternion(x=qx, y=qy, z=qz, w=qw),
+    )
+
+
+def _planar_pose(pose: Pose2D) -> fm.Pose:
+    return _pose(pose.x, pose.y, 0.0, yaw_quaternion(pose.theta))
+
+
+def _colour(rgba: Sequence[float]) -> fm.Color:
+    r, g, b, a = (float(c) for c in rgba)
+    return fm.Color(r=r, g=g, b=b, a=a)
+
+
+def raw_image(image: np.ndarray, stamp_ns: int, frame_id: str) -> fm.RawImage:
+    """(H, W, 3) uint8 RGB → "rgb8", (H, W) uint8 → "mono8"."""
+    image = np.asarray(image)
+    if image.dtype != np.uint8 or not (
+        image.ndim == 2 or (image.ndim == 3 and image.shape[2] == 3)
+    ):
+        msg = f"images must be (H, W, 3) or (H, W) uint8, got {image.shape} {image.dtype}"
+        raise ValueError(msg)
+    height, width = image.shape[:2]
+    encoding = "mono8" if image.ndim == 2 else "rgb8"
+    return fm.RawImage(
+        timestamp=timestamp(stamp_ns),
+        frame_id=frame_id,
+        width=width,
+        height=height,
+        encoding=encoding,
+        step=width * (1 if image.ndim == 2 else 3),
+        data=image.tobytes(),  # tobytes() is C order whatever the array's layout
+    )
+
+
+def camera_calibration(rig: StereoRig, side: str, stamp_ns: int) -> fm.CameraCalibration:
+    """The rectified calibration of one camera: no distortion, R = I, the left camera as
+    the stereo reference (the right P carries −fx·baseline)."""
+    if side not in contract.CAMERA_FRAMES:
+        msg = f"side must be 'left' or 'right', got {side!r}"
+        raise ValueError(msg)
+    return fm.CameraCalibration(
+        timestamp=timestamp(stamp_ns),
+        frame_id=contract.CAMERA_FRAMES[side],
+        width=rig.width,
+        height=rig.height,
+        distortion_model="plumb_bob",
+        D=[0.0] * 5,
+        K=[float(v) for v in rig.intrinsics().ravel()],
+        R=[float(v) for v in np.eye(3).ravel()],
+        P=[float(v) for v in rig.projection(side).ravel()],
+    )
+
+
+def pose_in_frame(pose: Pose2D, stamp_ns: int, frame_id: str) -> fm.PoseInFrame:
+    """A planar pose (z = 0, yaw about z)."""
+    return fm.PoseInFrame(timestamp=timestamp(stamp_ns), frame_id=frame_id, pose=_planar_pose(pose))
+
+
+def frame_transforms(transforms: Iterable[Transform], stamp_ns: int) -> fm.FrameTransforms:
+    ts = timestamp(stamp_ns)
+    return fm.FrameTransforms(
+        transforms=[
+            fm.FrameTransform(
+                timestamp=ts,
+                parent_frame_id=t.parent,
+                child_frame_id=t.child,
+                translation=fm.Vector3(
+                    x=float(t.translation[0]), y=float(t.translation[1]), z=float(t.translation[2])
+                ),
+                rotation=fm.Quaternion(
+                    x=float(t.rotation[0]),
+                    y=float(t.rotation[1]),
+                    z=float(t.rotation[2]),
+                    w=float(t.rotation[3]),
+                ),
+            )
+            for t in transforms
+        ]
+    )
+
+
+def odom_transform(pose: Pose2D) -> Transform:
+    """odom → base_link for the robot at ``pose``."""
+    return Transform(
+        contract.ODOM_FRAME, contract.BASE_FRAME, (pose.x, pose.y, 0.0), yaw_quaternion(pose.theta)
+    )
+
+
+def static_transforms(rig: StereoRig, sonar: SonarConfig) -> list[Transform]:
+    """base_link → camera_left/right (optical frames) and base_link → sonar_i (x along the
+    beam), from the rig and the sonar ring."""
+    out = [
+        Transform(
+            contract.BASE_FRAME,
+            contract.CAMERA_FRAMES[side],
+            rig.camera_position(side),
+            OPTICAL_IN_BASE_QUAT,
+        )
+        for side in ("left", "right")
+    ]
+    for i, (x, y, yaw) in enumerate(sonar.mounts()):
+        out.append(
+            Transform(
+                contract.BASE_FRAME,
+                contract.sonar_frame(i),
+                (float(x), float(y), sonar.mount_height),
+                yaw_quaternion(float(yaw)),
+            )
+        )
+    return out
+
+
+def sonar_ranges(reading: SonarReading, *, min_range: float) -> dict[str, Any]:
+    """A ``flylog.SonarRanges`` message (NaN ranges become null)."""
+    ranges = np.asarray(reading.ranges, dtype=float)
+    return {
+        "timestamp": json_time(reading.stamp_ns),
+        "frame_id": contract.BASE_FRAME,
+        "ranges": [None if math.isnan(r) else float(r) for r in ranges],
+        "fired": [bool(f) for f in ~np.isnan(ranges)],
+        "cone_angle": float(reading.cone_angle),
+        "max_range": float(reading.max_range),
+        "min_range": float(min_range),
+        "mounts": [[float(v) for v in row] for row in np.asarray(reading.mounts, dtype=float)],
+    }
+
+
+def command(
+    linear: float, angular: float, status: contract.CommandStatus, stamp_ns: int
+) -> dict[str, Any]:
+    """A ``flylog.Command`` message."""
+    return {
+        "timestamp": json_time(stamp_ns),
+        "linear": float(linear),
+        "angular": float(angular),
+        "status": contract.CommandStatus(status).value,
+    }
+
+
+def point_cloud(
+    xyz: np.ndarray, fitness: np.ndarray, stamp_ns: int, frame_id: str
+) -> fm.PointCloud:
+    """Packed little-endian float32 fields x, y, z, fitness (16 bytes a point)."""
+    xyz = np.asarray(xyz)
+    fitness = np.asarray(fitness)
+    if xyz.ndim != 2 or xyz.shape[1] != 3 or fitness.shape != (xyz.shape[0],):
+        msg = f"point_cloud needs xyz (N, 3) and fitness (N,), got {xyz.shape} and {fitness.shape}"
+        raise ValueError(msg)
+    packed = np.empty((xyz.shape[0], 4), dtype="<f4")
+    packed[:, :3] = xyz
+    packed[:, 3] = fitness
+    names = ("x", "y", "z", "fitness")
+    return fm.PointCloud(
+        timestamp=timestamp(stamp_ns),
+        frame_id=frame_id,
+        pose=_pose(0.0, 0.0, 0.0, (0.0, 0.0, 0.0, 1.0)),
+        point_stride=16,
+        fields=[
+            fm.PackedElementField(name=name, offset=4 * i, type=_F32)
+            for i, name in enumerate(names)
+        ],
+        data=packed.tobytes(),
+    )
+
+
+def image_annotations(
+    uv: np.ndarray, colours: np.ndarray, stamp_ns: int, *, thickness: float = 3.0
+) -> fm.ImageAnnotations:
+    """One POINTS annotation: pixel positions (N, 2) with per-point RGBA colours (N, 4)."""
+    uv = np.asarray(uv, dtype=float)
+    colours = np.asarray(colours, dtype=float)
+    if uv.ndim != 2 or uv.shape[1] != 2 or colours.shape != (uv.shape[0], 4):
+        msg = f"annotations need uv (N, 2) and colours (N, 4), got {uv.shape}, {colours.shape}"
+        raise ValueError(msg)
+    ts = timestamp(stamp_ns)
+    points = fm.PointsAnnotation(
+        timestamp=ts,
+        type=fm.PointsAnnotationType.Points,
+        points=[fm.Point2(x=u, y=v) for u, v in uv.tolist()],
+        outline_colors=[fm.Color(r=r, g=g, b=b, a=a) for r, g, b, a in colours.tolist()],
+        thickness=float(thickness),
+    )
+    return fm.ImageAnnotations(timestamp=ts, points=[points])
+
+
+def grid(
+    values: np.ndarray, origin: Pose2D, cell_size: float, stamp_ns: int, frame_id: str
+) -> fm.Grid:
+    """A float32 grid with one field "potential": ``values[row, col]``, columns along the
+    grid's x axis, rows along its y axis, ``origin`` the pose of cell (0, 0)'s corner."""
+    values = np.asarray(values)
+    if values.ndim != 2:
+        msg = f"grid values must be (rows, cols), got {values.shape}"
+        raise ValueError(msg)
+    cols = values.shape[1]
+    data = np.ascontiguousarray(values, dtype="<f4")
+    return fm.Grid(
+        timestamp=timestamp(stamp_ns),
+        frame_id=frame_id,
+        pose=_planar_pose(origin),
+        column_count=cols,
+        cell_size=fm.Vector2(x=float(cell_size), y=float(cell_size)),
+        row_stride=4 * cols,
+        cell_stride=4,
+        fields=[fm.PackedElementField(name="potential", offset=0, type=_F32)],
+        data=data.tobytes(),
+    )
+
+
+def poses_in_frame(poses: np.ndarray, stamp_ns: int, frame_id: str) -> fm.PosesInFrame:
+    """Planar poses (N, 3): x, y, theta."""
+    poses = np.asarray(poses, dtype=float)
+    if poses.ndim != 2 or poses.shape[1] != 3:
+        msg = f"poses must be (N, 3) x, y, theta, got {poses.shape}"
+        raise ValueError(msg)
+    return fm.PosesInFrame(
+        timestamp=timestamp(stamp_ns),
+        frame_id=frame_id,
+        poses=[_pose(x, y, 0.0, yaw_quaternion(t)) for x, y, t in poses.tolist()],
+    )
+
+
+def scene_update(
+    shapes: Iterable[BoxShape | CylinderShape], stamp_ns: int, frame_id: str
+) -> fm.SceneUpdate:
+    """One entity per shape (its id the shape's id), lasting forever."""
+    ts = timestamp(stamp_ns)
+    entities = []
+    for shape in shapes:
+        x, y, z = shape.centre
+        if isinstance(shape, BoxShape):
+            cubes = [
+                fm.CubePrimitive(
+                    pose=_pose(x, y, z, yaw_quaternion(shape.yaw)),
+                    size=fm.Vector3(x=shape.size[0], y=shape.size[1], z=shape.size[2]),
+                    color=_colour(shape.colour),
+                )
+            ]
+            cylinders = []
+        elif isinstance(shape, CylinderShape):
+            cubes = []
+            cylinders = [
+                fm.CylinderPrimitive(
+                    pose=_pose(x, y, z, (0.0, 0.0, 0.0, 1.0)),
+                    size=fm.Vector3(x=shape.diameter, y=shape.diameter, z=shape.height),
+                    bottom_scale=1.0,
+                    top_scale=1.0,
+                    color=_colour(shape.colour),
+                )
+            ]
+        else:
+            msg = f"scene shapes must be BoxShape or CylinderShape, got {type(shape).__name__}"
+            raise TypeError(msg)
+        entities.append(
+            fm.SceneEntity(
+                timestamp=ts,
+                frame_id=frame_id,
+                id=shape.id,
+                lifetime=fm.Duration(0, 0),
+                cubes=cubes,
+                cylinders=cylinders,
+            )
+        )
+    return fm.SceneUpdate(entities=entities)

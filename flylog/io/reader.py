@@ -1,0 +1,281 @@
+"""Streaming MCAP reading: ``for m in open_log(path).messages([ODOM]): ...``.
+
+Messages come in log-time order, decoded into plain values (``flylog.io.decode``), with
+bounded memory: a finished log is read chunk by chunk through its index; an unfinished or
+cut log is read front to back up to the damage, then a TruncatedLogWarning says so.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import warnings
+from collections.abc import Callable, Iterable, Iterator, Mapping
+from pathlib import Path
+from typing import Any
+
+from mcap.reader import SeekingReader
+from mcap.records import Channel, Schema
+from mcap.summary import Summary
+from mcap_protobuf.decoder import DecoderFactory
+
+from flylog.errors import LogError
+from flylog.io import contract
+from flylog.io.decode import DECODERS
+from flylog.io.pairing import pair_stereo
+from flylog.io.records import LogAttachment, LogMessage, TopicInfo
+from flylog.io.scan import (
+    MAGIC,
+    RawMessage,
+    ScanState,
+    TruncatedLogWarning,
+    in_log_time_order,
+    scan_messages,
+)
+from flylog.io.writer import MAX_WRITE_LAG_NS
+from flylog.sensors import StereoPair
+
+
+def open_log(path: str | os.PathLike[str]) -> LogReader:
+    """Open an MCAP log for reading; LogError if it is missing or not MCAP."""
+    path = Path(path)
+    try:
+        with path.open("rb") as fh:
+            magic = fh.read(len(MAGIC))
+    except FileNotFoundError:
+        msg = f"{path}: no such file"
+        raise LogError(msg) from None
+    except IsADirectoryError:
+        msg = f"{path} is a directory, not an MCAP file"
+        raise LogError(msg) from None
+    except OSError as exc:
+        msg = f"{path}: cannot be read ({exc.strerror})"
+        raise LogError(msg) from None
+    if magic != MAGIC:
+        msg = f"{path} is not an MCAP file (it does not start with the MCAP magic bytes)"
+        raise LogError(msg)
+    return LogReader(path, _read_summary(path))
+
+
+def _read_summary(path: Path) -> Summary | None:
+    """The summary section, or None if the log has none or its end is damaged."""
+    try:
+        with path.open("rb") as fh:
+            fh.seek(-len(MAGIC), os.SEEK_END)
+            if fh.read() != MAGIC:
+                return None
+            fh.seek(0)
+            summary = SeekingReader(fh).get_summary()
+    except Exception:  # a damaged end is what the front-to-back path is for
+        return None
+    if summary is None or summary.statistics is None:
+        return None
+    return summary
+
+
+class LogReader:
+    """A log opened for reading. Each iteration opens its own file handle, so several may
+    run at once (images and odometry, say) and nothing needs closing."""
+
+    def __init__(self, path: Path, summary: Summary | None) -> None:
+        self.path = path
+        self._summary = summary
+        self._scan: ScanState | None = None
+        self._topics: dict[str, TopicInfo] | None = None
+        self._times: tuple[int, int] = (0, 0)
+
+    @property
+    def complete(self) -> bool:
+        """Whether the log was finished by its writer (it has a summary)."""
+        return self._summary is not None
+
+    # ---- what the log holds ---------------------------------------------------------------
+
+    def _scanned(self) -> ScanState:
+        """A front-to-back pass over an unfinished log, for its topics, times and records."""
+        if self._scan is None:
+            state = ScanState()
+            counts: dict[str, int] = {}
+            schemas: dict[str, str] = {}
+            lo, hi = None, 0
+            with self.path.open("rb") as fh:
+                for raw in scan_messages(fh, state):
+                    topic = raw.channel.topic
+                    counts[topic] = counts.get(topic, 0) + 1
+                    schemas[topic] = _schema_name(raw.schema)
+                    t = raw.message.log_time
+                    lo = t if lo is None else min(lo, t)
+                    hi = max(hi, t)
+            self._topics = {t: TopicInfo(schemas[t], counts[t]) for t in sorted(counts)}
+            self._times = (lo or 0, hi)
+            self._scan = state
+        return self._scan
+
+    def topics(self) -> dict[str, TopicInfo]:
+        """topic → (schema name, message count), for topics with at least one message."""
+        if self._summary is None:
+            self._scanned()
+            assert self._topics is not None
+            return dict(self._topics)
+        stats = self._summary.statistics
+        assert stats is not None
+        out = {}
+        for channel_id, count in stats.channel_message_counts.items():
+            channel = self._summary.channels[channel_id]
+            schema = self._summary.schemas.get(channel.schema_id)
+            if count:
+                out[channel.topic] = TopicInfo(_schema_name(schema), count)
+        return dict(sorted(out.items()))
+
+    @property
+    def start_ns(self) -> int:
+        """Log time of the first message (0 for an empty log)."""
+        return self._time_range()[0]
+
+    @property
+    def end_ns(self) -> int:
+        """Log time of the last message (0 for an empty log)."""
+        return self._time_range()[1]
+
+    def _time_range(self) -> tuple[int, int]:
+        if self._summary is None:
+            self._scanned()
+            return self._times
+        stats = self._summary.statistics
+        assert stats is not None
+        return stats.message_start_time, stats.message_end_time
+
+    def attachments(self) -> list[LogAttachment]:
+        if self._summary is None:
+            found = self._scanned().attachments
+        else:
+            with self.path.open("rb") as fh:
+                found = list(SeekingReader(fh).iter_attachments())
+        return [LogAttachment(a.name, a.media_type, a.log_time, a.data) for a in found]
+
+    def metadata(self) -> dict[str, dict[str, str]]:
+        """name → key/value pairs of every metadata record (the last wins on a repeated name)."""
+        if self._summary is None:
+            found = self._scanned().metadata
+        else:
+            with self.path.open("rb") as fh:
+                found = list(SeekingReader(fh).iter_metadata())
+        return {m.name: dict(m.metadata) for m in found}
+
+    # ---- messages -------------------------------------------------------------------------
+
+    def raw_messages(self, topics: Iterable[str] | None = None) -> Iterator[RawMessage]:
+        """Undecoded messages in log-time order (a TruncatedLogWarning at the end if the log
+        is damaged)."""
+        wanted = None if topics is None else frozenset(topics)
+        with self.path.open("rb") as fh:
+            if self._summary is not None:
+                found = SeekingReader(fh, validate_crcs=True).iter_messages(
+                    topics=None if wanted is None else sorted(wanted), log_time_order=True
+                )
+                while True:
+                    try:
+                        schema, channel, message = next(found)
+                    except StopIteration:
+                        return
+                    except Exception as exc:  # a finished log damaged inside: name it
+                        msg = f"{self.path}: damaged log ({type(exc).__name__}: {exc})"
+                        raise LogError(msg) from None
+                    yield RawMessage(schema, channel, message)
+            state = ScanState()
+            count = 0
+            for raw in in_log_time_order(scan_messages(fh, state, topics=wanted), MAX_WRITE_LAG_NS):
+                count += 1
+                yield raw
+        if state.damage is not None:
+            which = "" if wanted is None else f" on {', '.join(sorted(wanted))}"
+            msg = (
+                f"{self.path}: the log is truncated or unfinished ({state.damage}); "
+                f"recovered {count} intact messages{which}"
+            )
+            warnings.warn(msg, TruncatedLogWarning, stacklevel=3)
+
+    def messages(self, topics: Iterable[str] | None = None) -> Iterator[LogMessage]:
+        """Messages in log-time order, each decoded into plain values by its schema."""
+        decode = _Decoding(self.path)
+        for raw in self.raw_messages(topics):
+            yield decode(raw)
+
+    def stereo_pairs(self, *, tolerance_ns: int = 5_000_000) -> Iterator[StereoPair]:
+        """The log's stereo pairs, streamed (see ``pair_stereo``)."""
+        stream = self.messages([contract.LEFT_IMAGE, contract.RIGHT_IMAGE])
+        for m in pair_stereo(stream, tolerance_ns=tolerance_ns):
+            yield m.value
+
+
+def _schema_name(schema: Schema | None) -> str:
+    return "" if schema is None else schema.name
+
+
+class _Decoding:
+    """Decodes raw messages; one decoder per channel, built on first use."""
+
+    def __init__(self, path: Path) -> None:
+        self._path = path
+        self._protobuf = DecoderFactory()
+        self._decoders: dict[int, Callable[[bytes], Any]] = {}
+
+    def _decoder(self, schema: Schema | None, channel: Channel) -> Callable[[bytes], Any]:
+        parse: Callable[[bytes], Any] | None
+        if channel.message_encoding == contract.JSON_MESSAGE_ENCODING:
+            parse = json.loads
+        else:
+            parse = self._protobuf.decoder_for(channel.message_encoding, schema)
+        if parse is None:
+            msg = (
+                f"{self._path}: topic {channel.topic} has message encoding "
+                f"'{channel.message_encoding}', which flylog cannot decode"
+            )
+            raise LogError(msg)
+        convert = DECODERS.get(_schema_name(schema))
+        if convert is None:
+            return parse
+        return lambda data: convert(parse(data))
+
+    def __call__(self, raw: RawMessage) -> LogMessage:
+        channel, message = raw.channel, raw.message
+        decoder = self._decoders.get(channel.id)
+        if decoder is None:
+            decoder = self._decoders[channel.id] = self._decoder(raw.schema, channel)
+        try:
+            value = decoder(message.data)
+        except LogError as exc:
+            msg = f"{self._path}: {channel.topic} at {message.log_time} ns: {exc}"
+            raise LogError(msg) from None
+        except Exception as exc:  # a message the schema cannot parse
+            msg = (
+                f"{self._path}: cannot decode the message on {channel.topic} at "
+                f"{message.log_time} ns ({type(exc).__name__}: {exc})"
+            )
+            raise LogError(msg) from None
+        return LogMessage(channel.topic, message.log_time, _schema_name(raw.schema), value)
+
+
+def require_topics(reader: LogReader, needed: Iterable[str] | Mapping[str, str]) -> None:
+    """LogError unless every needed topic has messages with the expected schema (the
+    contract's, or the mapping's topic → schema name)."""
+    expected = (
+        dict(needed)
+        if isinstance(needed, Mapping)
+        else {t: contract.TOPIC_SCHEMAS.get(t) for t in needed}
+    )
+    present = reader.topics()
+    missing = [t for t in expected if t not in present]
+    if missing:
+        listing = ", ".join(f"{t} ({i.schema})" for t, i in present.items()) or "none"
+        msg = (
+            f"{reader.path} lacks topic(s) {', '.join(missing)}; the topics present are: {listing}"
+        )
+        raise LogError(msg)
+    for topic, schema in expected.items():
+        if schema is not None and present[topic].schema != schema:
+            msg = (
+                f"{reader.path}: topic {topic} should carry {schema} "
+                f"but carries {present[topic].schema or 'no schema'}"
+            )
+            raise LogError(msg)
