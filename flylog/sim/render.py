@@ -1,0 +1,298 @@
+"""The stereo renderer: textured, Lambert-shaded obstacles on a textured ground, by ray casting.
+
+Every obstacle is a vertical extrusion and both cameras are horizontal, so an image column is
+a single 2-D ray in the ground plane: it is intersected once with every footprint (entry and
+exit depths, sorted), then each pixel of the column walks those hits and tests the height of
+its 3-D ray at them (a side face if the height at entry is within [0, h], the top face if the
+ray comes down through h inside the footprint), else the ground (ray going down) or the sky.
+The 2-D ray parameter is the depth along the optical axis, so depth comes for free.
+
+:class:`Renderer` runs a numba kernel, parallel over the columns of both images;
+:func:`render_reference` is the plain-numpy reference (slow, for tests at small sizes).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from flylog.geometry import Pose2D, StereoRig
+from flylog.scene.footprints import DISC, Footprints, ray_hit, ray_hits_numpy
+from flylog.scene.load import Scene
+from flylog.sim.textures import N_OCTAVES, texture_value_cached, texture_value_numpy
+
+GROUND = -1
+SKY = -2
+# A pixel's footprint on the ground (and tops) grows as 1/cos(incidence), capped for grazing
+# views. The incidence is taken from the image row only (the same in both cameras) so that
+# the texture's fading, and hence the colour of a surface point, is the same in both images;
+# vertical faces use the depth alone for the same reason.
+_MIN_INCIDENCE_COS = 0.05
+
+
+@dataclass(frozen=True, slots=True)
+class RenderedPair:
+    """A rendered stereo pair and the left camera's ground truth."""
+
+    left: np.ndarray  # (H, W, 3) uint8 RGB
+    right: np.ndarray  # (H, W, 3) uint8 RGB
+    depth: np.ndarray  # (H, W) float32, m along the left optical axis; inf = sky
+    ids: np.ndarray  # (H, W) int16: obstacle index, GROUND (-1) or SKY (-2)
+
+
+@dataclass(frozen=True)
+class _SceneArrays:
+    """Everything the kernel needs about the scene, as flat arrays and numbers."""
+
+    fp: Footprints
+    ground_color: np.ndarray  # (3,)
+    ground_feature: float
+    ground_contrast: float
+    light: np.ndarray  # (3,) unit vector towards the light
+    ambient: float
+    sky: np.ndarray  # (3,)
+
+
+def _scene_arrays(scene: Scene) -> _SceneArrays:
+    tex = scene.spec.ground.texture
+    lighting = scene.spec.lighting
+    return _SceneArrays(
+        fp=scene.footprints,
+        ground_color=np.array(tex.color, dtype=float),
+        ground_feature=tex.feature_size,
+        ground_contrast=tex.contrast,
+        light=np.array(lighting.light_vector()),
+        ambient=lighting.ambient,
+        sky=np.array(lighting.sky_color, dtype=float),
+    )
+
+
+def _camera_rays(rig: StereoRig, pose: Pose2D, side: str) -> tuple[float, float, np.ndarray]:
+    """World origin (x, y) of a camera and the (W, 2) world 2-D ray direction of each column,
+    scaled so that the ray parameter is the depth."""
+    mx, my, _ = rig.camera_position(side)
+    c, s = math.cos(pose.theta), math.sin(pose.theta)
+    ox, oy = pose.x + c * mx - s * my, pose.y + s * mx + c * my
+    lateral = -(np.arange(rig.width) - rig.cx) / rig.focal_px  # base_link y per metre of depth
+    return ox, oy, np.stack([c - s * lateral, s + c * lateral], axis=1)
+
+
+class Renderer:
+    """Renders a scene from the robot's true pose; the scene is compiled once."""
+
+    def __init__(self, scene: Scene, rig: StereoRig) -> None:
+        self.scene = scene
+        self.rig = rig
+        self._arrays = _scene_arrays(scene)
+
+    def _run(self, pose: Pose2D, sides: tuple[str, ...], want_color: bool):
+        rig, a, fp = self.rig, self._arrays, self._arrays.fp
+        origins = np.zeros((len(sides), 2))
+        dirs = np.zeros((len(sides), rig.width, 2))
+        for i, side in enumerate(sides):
+            ox, oy, d = _camera_rays(rig, pose, side)
+            origins[i] = ox, oy
+            dirs[i] = d
+        n_img = len(sides) if want_color else 0
+        rgb = np.empty((n_img, rig.height, rig.width, 3), dtype=np.uint8)
+        depth = np.empty((rig.height, rig.width), dtype=np.float32)
+        ids = np.empty((rig.height, rig.width), dtype=np.int16)
+        _render_kernel(
+            origins, dirs, rig.mount_height, rig.focal_px, rig.cy, rig.height,
+            fp.kind, fp.cx, fp.cy, fp.cos, fp.sin, fp.hx, fp.hy, fp.height,
+            fp.color, fp.feature_size, fp.contrast,
+            a.ground_color, a.ground_feature, a.ground_contrast, a.light, a.ambient, a.sky,
+            want_color, rgb, depth, ids,
+        )  # fmt: skip
+        return rgb, depth, ids
+
+    def render(self, pose: Pose2D) -> RenderedPair:
+        """Both images and the left camera's depth and ids, from the true robot pose."""
+        rgb, depth, ids = self._run(pose, ("left", "right"), want_color=True)
+        return RenderedPair(left=rgb[0], right=rgb[1], depth=depth, ids=ids)
+
+    def render_depth(self, pose: Pose2D) -> tuple[np.ndarray, np.ndarray]:
+        """The left camera's (depth, ids) only: ground truth for the metrics."""
+        _, depth, ids = self._run(pose, ("left",), want_color=False)
+        return depth, ids
+
+
+# No nnan/ninf fast-math: depth uses inf for the sky.
+@numba.njit(cache=True, parallel=True, fastmath={"nsz", "arcp", "contract", "afn"})
+def _render_kernel(
+    origins, dirs, hc, f, cy, height,
+    kind, ocx, ocy, ocos, osin, ohx, ohy, oh, ocolor, ofeat, ocontrast,
+    gcolor, gfeat, gcontrast, light, ambient, sky,
+    want_color, rgb, depth, ids,
+):  # fmt: skip
+    n_cams, width = dirs.shape[0], dirs.shape[1]
+    n = kind.shape[0]
+    for job in numba.prange(n_cams * width):
+        cam, u = job // width, job % width
+        ox, oy = origins[cam, 0], origins[cam, 1]
+        dx, dy = dirs[cam, u, 0], dirs[cam, u, 1]
+        t_in = np.empty(n)
+        t_out = np.empty(n)
+        nxs = np.empty(n)
+        nys = np.empty(n)
+        side_s = np.empty(n)
+        order = np.empty(n, dtype=np.int64)
+        tex_keys = np.full((N_OCTAVES, 3), -1, dtype=np.int64)
+        tex_corners = np.zeros((N_OCTAVES, 4))
+        n_hit = 0
+        for k in range(n):
+            a, b, nx, ny = ray_hit(
+                kind[k], ocx[k], ocy[k], ocos[k], osin[k], ohx[k], ohy[k], ox, oy, dx, dy
+            )
+            t_in[k], t_out[k], nxs[k], nys[k] = a, b, nx, ny
+            if b >= a:
+                # A side face is hit at the same 2-D point by every row: its texture
+                # coordinate along the face is computed once per column.
+                ex, ey = ox + a * dx, oy + a * dy
+                if kind[k] == DISC:
+                    side_s[k] = ohx[k] * math.atan2(ny, nx)
+                else:
+                    side_s[k] = -ny * ex + nx * ey
+                # Insertion sort by entry depth: a column crosses few footprints.
+                j = n_hit
+                while j > 0 and t_in[order[j - 1]] > a:
+                    order[j] = order[j - 1]
+                    j -= 1
+                order[j] = k
+                n_hit += 1
+        for v in range(height):
+            slope = (v - cy) / f  # the 3-D ray descends by `slope` per metre of depth
+            best, hit, top = np.inf, -2, False
+            if slope > 0.0:
+                best, hit = hc / slope, -1
+            for i in range(n_hit):
+                k = order[i]
+                if t_in[k] >= best:
+                    break
+                if t_in[k] > 0.0:
+                    z_in = hc - slope * t_in[k]
+                    if 0.0 <= z_in <= oh[k]:
+                        best, hit, top = t_in[k], k, False
+                        continue
+                if slope > 0.0 and hc > oh[k]:
+                    t_top = (hc - oh[k]) / slope
+                    if max(t_in[k], 0.0) <= t_top <= t_out[k] and t_top < best:
+                        best, hit, top = t_top, k, True
+            if cam == 0:
+                depth[v, u] = best
+                ids[v, u] = hit
+            if not want_color:
+                continue
+            if hit == -2:
+                for ch in range(3):
+                    rgb[cam, v, u, ch] = np.uint8(math.floor(sky[ch] * 255.0 + 0.5))
+                continue
+            px, py = ox + best * dx, oy + best * dy
+            if hit == -1 or top:
+                nx, ny, nz = 0.0, 0.0, 1.0
+                s, t = px, py
+            else:
+                nx, ny, nz = nxs[hit], nys[hit], 0.0
+                s, t = side_s[hit], hc - slope * best
+            if hit == -1:
+                seed, feat, contrast = 0, gfeat, gcontrast
+            else:
+                seed = 2 + 2 * hit + (1 if top else 0)
+                feat, contrast = ofeat[hit], ocontrast[hit]
+            incidence = 1.0
+            if nz > 0.0:
+                incidence = max(slope / math.sqrt(1.0 + slope * slope), _MIN_INCIDENCE_COS)
+            tex = texture_value_cached(
+                s, t, seed, feat, best / f / incidence, tex_keys, tex_corners
+            )
+            lambert = max(nx * light[0] + ny * light[1] + nz * light[2], 0.0)
+            shade = ambient + (1.0 - ambient) * lambert
+            gain = (1.0 + contrast * (2.0 * tex - 1.0)) * shade
+            for ch in range(3):
+                base = gcolor[ch] if hit == -1 else ocolor[hit, ch]
+                val = min(max(base * gain, 0.0), 1.0)
+                rgb[cam, v, u, ch] = np.uint8(math.floor(val * 255.0 + 0.5))
+
+
+def render_reference(scene: Scene, rig: StereoRig, pose: Pose2D) -> RenderedPair:
+    """Plain-numpy reference of :meth:`Renderer.render`: every candidate surface of every
+    pixel is computed and the nearest taken (no sorting, no early exit)."""
+    a = _scene_arrays(scene)
+    fp = a.fp
+    n = len(fp)
+    slope = (np.arange(rig.height) - rig.cy) / rig.focal_px
+    hc = rig.mount_height
+    down = slope > 0.0
+    with np.errstate(divide="ignore"):
+        t_ground = np.where(down, hc / np.where(down, slope, 1.0), np.inf)
+    images, depth0, ids0 = [], None, None
+    for side in ("left", "right"):
+        ox, oy, dirs = _camera_rays(rig, pose, side)
+        img = np.empty((rig.height, rig.width, 3), dtype=np.uint8)
+        depth = np.empty((rig.height, rig.width))
+        ids = np.empty((rig.height, rig.width), dtype=np.int64)
+        for u in range(rig.width):
+            dx, dy = dirs[u]
+            t_in, t_out, nxs, nys = ray_hits_numpy(fp, ox, oy, dx, dy)
+            z_in = hc - slope[:, None] * t_in[None, :]
+            side_ok = (t_in > 0.0) & (z_in >= 0.0) & (z_in <= fp.height)
+            t_side = np.where(side_ok, t_in, np.inf)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t_top = (hc - fp.height[None, :]) / slope[:, None]
+            top_ok = (
+                down[:, None]
+                & (hc > fp.height)
+                & (t_top >= np.maximum(t_in, 0.0))
+                & (t_top <= t_out)
+            )
+            t_top = np.where(top_ok, t_top, np.inf)
+            cand = np.concatenate([t_ground[:, None], t_side, t_top], axis=1)  # (H, 1 + 2n)
+            pick = np.argmin(cand, axis=1)
+            best = cand[np.arange(rig.height), pick]
+            hit = np.where(pick == 0, -1, (pick - 1) % max(n, 1))
+            hit = np.where(np.isinf(best), -2, hit)
+            top = pick > n
+            depth[:, u], ids[:, u] = best, hit
+            img[:, u] = _shade_column_numpy(a, hc, rig.focal_px, ox, oy, dx, dy, slope, best, hit,
+                                            top, nxs, nys)  # fmt: skip
+        images.append(img)
+        if depth0 is None:
+            depth0, ids0 = depth, ids
+    assert depth0 is not None and ids0 is not None
+    return RenderedPair(images[0], images[1], depth0.astype(np.float32), ids0.astype(np.int16))
+
+
+def _shade_column_numpy(a, hc, f, ox, oy, dx, dy, slope, best, hit, top, nxs, nys) -> np.ndarray:
+    fp = a.fp
+    k = np.maximum(hit, 0)
+    obstacle = hit >= 0
+    flat = ~obstacle | top
+    finite = np.where(np.isinf(best), 0.0, best)
+    px, py = ox + finite * dx, oy + finite * dy
+    nx = np.where(flat, 0.0, nxs[k]) if len(fp) else np.zeros_like(px)
+    ny = np.where(flat, 0.0, nys[k]) if len(fp) else np.zeros_like(px)
+    nz = np.where(flat, 1.0, 0.0)
+    if len(fp):
+        along = np.where(fp.kind[k] == DISC, fp.hx[k] * np.arctan2(ny, nx), -ny * px + nx * py)
+    else:
+        along = px
+    s = np.where(flat, px, along)
+    t = np.where(flat, py, hc - slope * finite)
+    seed = np.where(obstacle, 2 + 2 * k + top, 0)
+    feat = np.where(obstacle, fp.feature_size[k], a.ground_feature) if len(fp) else a.ground_feature
+    contrast = (
+        np.where(obstacle, fp.contrast[k], a.ground_contrast) if len(fp) else a.ground_contrast
+    )
+    grazing = np.maximum(slope / np.sqrt(1.0 + slope * slope), _MIN_INCIDENCE_COS)
+    incidence = np.where(nz > 0.0, grazing, 1.0)
+    footprint = np.where(np.isinf(best), 1.0, finite / f / incidence)
+    tex = texture_value_numpy(s, t, seed, feat, footprint)
+    lambert = np.maximum(nx * a.light[0] + ny * a.light[1] + nz * a.light[2], 0.0)
+    gain = (1.0 + contrast * (2.0 * tex - 1.0)) * (a.ambient + (1.0 - a.ambient) * lambert)
+    base = np.where(obstacle[:, None], fp.color[k] if len(fp) else 0.0, a.ground_color)
+    val = np.clip(base * gain[:, None], 0.0, 1.0)
+    val = np.where((hit == -2)[:, None], a.sky, val)
+    return np.floor(val * 255.0 + 0.5).astype(np.uint8)

@@ -1,0 +1,166 @@
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from flylog.geometry import Pose2D, StereoRig
+from flylog.scene import load_scene, parse_scene
+from flylog.sim.render import GROUND, SKY, Renderer, render_reference
+
+FIXTURES = Path(__file__).resolve().parents[2] / "fixtures" / "scenes"
+SMALL = StereoRig(width=64, height=48, focal_px=50.0, baseline=0.12, mount_height=0.5)
+
+
+def render_with(impl, scene, rig, pose):
+    if impl == "numba":
+        return Renderer(scene, rig).render(pose)
+    return render_reference(scene, rig, pose)
+
+
+IMPLS = ["numba", "numpy"]
+
+
+def wall_scene(x, *, height=10.0, low_texture=False, feature_size=0.02):
+    # Lit from behind the cameras (the -x side), so that the wall's face is not in shade.
+    return parse_scene(
+        f"""
+name = "wall"
+[lighting]
+azimuth_deg = 180.0
+[[obstacles]]
+kind = "wall"
+start = [{x}, -50.0]
+end = [{x}, 50.0]
+thickness = 0.2
+height = {height}
+low_texture = {str(low_texture).lower()}
+texture = {{ feature_size = {feature_size}, contrast = 0.8 }}
+""",
+        "mem",
+    )
+
+
+@pytest.mark.parametrize(
+    ("name", "pose"),
+    [
+        ("clutter", Pose2D(0.0, 0.0, 0.0)),
+        ("clutter", Pose2D(3.0, -1.0, 0.7)),
+        ("corridor", Pose2D(2.0, 0.3, -0.2)),
+        ("turn", Pose2D(0.0, 0.0, -1.0)),
+    ],
+)
+def test_numba_renderer_matches_numpy_reference(name, pose):
+    scene = load_scene(FIXTURES / f"{name}.toml")
+    got = Renderer(scene, SMALL).render(pose)
+    ref = render_reference(scene, SMALL, pose)
+    assert np.array_equal(got.ids, ref.ids)
+    assert np.array_equal(np.isinf(got.depth), np.isinf(ref.depth))
+    finite = np.isfinite(ref.depth)
+    np.testing.assert_allclose(got.depth[finite], ref.depth[finite], rtol=1e-6)
+    for a, b in ((got.left, ref.left), (got.right, ref.right)):
+        assert np.abs(a.astype(int) - b.astype(int)).max() <= 1
+    assert len(np.unique(got.ids)) > 3  # the view is not trivial
+
+
+@pytest.mark.parametrize("impl", IMPLS)
+def test_wall_at_known_distance_and_ground_below_it(impl):
+    scene = wall_scene(5.0)
+    out = render_with(impl, scene, SMALL, Pose2D())
+    wall_depth = 5.0 - 0.1 - SMALL.mount_x  # front face minus the cameras' forward offset
+    v = np.arange(SMALL.height)[:, None] * np.ones((1, SMALL.width))
+    with np.errstate(divide="ignore"):
+        ground = SMALL.mount_height * SMALL.focal_px / (v - SMALL.cy)
+    sees_ground = (v > SMALL.cy) & (ground < wall_depth)
+    assert np.array_equal(out.ids == GROUND, sees_ground)
+    assert np.all(out.ids[~sees_ground] == 0)
+    np.testing.assert_allclose(out.depth[~sees_ground], wall_depth, rtol=1e-6)
+    np.testing.assert_allclose(out.depth[sees_ground], ground[sees_ground], rtol=1e-6)
+
+
+@pytest.mark.parametrize("impl", IMPLS)
+def test_empty_scene_is_ground_below_the_horizon_and_sky_above(impl):
+    scene = parse_scene('name = "empty"\n', "mem")
+    out = render_with(impl, scene, SMALL, Pose2D(1.0, 2.0, 0.3))
+    v = np.arange(SMALL.height)
+    below = v > SMALL.cy
+    assert np.all(out.ids[~below] == SKY) and np.all(np.isinf(out.depth[~below]))
+    assert np.all(out.ids[below] == GROUND)
+    expect = SMALL.mount_height * SMALL.focal_px / (v[below] - SMALL.cy)
+    np.testing.assert_allclose(out.depth[below], np.repeat(expect[:, None], SMALL.width, 1))
+    sky = out.left[~below].reshape(-1, 3)
+    assert np.all(sky == sky[0])
+
+
+@pytest.mark.parametrize("impl", IMPLS)
+def test_disparity_of_fronto_parallel_wall_is_f_b_over_z(impl):
+    rig = StereoRig(width=96, height=64, focal_px=60.0, baseline=0.2, mount_height=0.5)
+    depth = 1.2  # f·b/Z = 10 px exactly
+    shift = round(rig.focal_px * rig.baseline / depth)
+    scene = wall_scene(depth + rig.mount_x + 0.1)
+    out = render_with(impl, scene, rig, Pose2D())
+    rows = np.all(out.ids == 0, axis=1)
+    assert rows.sum() > 20
+    left = out.left[rows].astype(int)
+    right = out.right[rows].astype(int)
+
+    def mismatch(d):
+        return np.abs(left[:, d:] - right[:, : rig.width - d]).mean()
+
+    assert np.abs(left[:, shift:] - right[:, : rig.width - shift]).max() <= 1
+    assert mismatch(shift) < 0.01
+    assert min(mismatch(shift - 2), mismatch(shift + 2)) > 5.0
+
+
+@pytest.mark.parametrize("impl", IMPLS)
+def test_low_texture_wall_is_nearly_uniform(impl):
+    textured = render_with(impl, wall_scene(3.0, feature_size=0.2), SMALL, Pose2D())
+    plain = render_with(impl, wall_scene(3.0, low_texture=True, feature_size=0.2), SMALL, Pose2D())
+    on_wall = textured.ids == 0
+    assert textured.left[on_wall].std(axis=0).min() > 5.0
+    assert plain.left[on_wall].std(axis=0).max() < 1.0
+
+
+@pytest.mark.parametrize("impl", IMPLS)
+def test_top_face_and_obstacle_ids(impl):
+    scene = parse_scene(
+        """
+name = "tops"
+[[obstacles]]
+kind = "box"          # a low platform ahead: seen from above
+center = [4.0, 0.0]
+size = [4.0, 20.0]
+height = 0.2
+[[obstacles]]
+kind = "cylinder"     # a post to the left
+center = [1.5, 1.0]
+radius = 0.2
+height = 3.0
+""",
+        "mem",
+    )
+    out = render_with(impl, scene, SMALL, Pose2D())
+    v = np.arange(SMALL.height)[:, None] * np.ones((1, SMALL.width))
+    slope = (v - SMALL.cy) / SMALL.focal_px
+    with np.errstate(divide="ignore"):
+        t_top = (SMALL.mount_height - 0.2) / slope
+    front, back = 2.0 - SMALL.mount_x, 6.0 - SMALL.mount_x
+    on_top = (out.ids == 0) & (slope > 0) & (t_top >= front) & (t_top <= back)
+    assert on_top.sum() > 50
+    np.testing.assert_allclose(out.depth[on_top], t_top[on_top], rtol=1e-6)
+    # The post is left of centre: its pixels are in the left half of the image.
+    u = np.nonzero(out.ids == 1)[1]
+    assert len(u) > 20 and u.max() < SMALL.cx
+    # Robot turned left by 90°: the post (now to the right) is out of view.
+    turned = render_with(impl, scene, SMALL, Pose2D(0.0, 0.0, np.pi / 2))
+    assert not np.any(turned.ids == 1)
+
+
+def test_render_depth_matches_render():
+    scene = load_scene(FIXTURES / "near-obstacle.toml")
+    renderer = Renderer(scene, SMALL)
+    pose = Pose2D(0.1, 0.0, 0.05)
+    full = renderer.render(pose)
+    depth, ids = renderer.render_depth(pose)
+    assert np.array_equal(depth, full.depth) and np.array_equal(ids, full.ids)
+    assert depth.dtype == np.float32 and ids.dtype == np.int16
+    assert full.left.shape == (SMALL.height, SMALL.width, 3) and full.left.dtype == np.uint8
