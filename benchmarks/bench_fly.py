@@ -1,0 +1,197 @@
+"""The fly engine's speed: fitness evaluations, generations, convergence vs SGBM, numba compile.
+
+Figures are noisy on a shared 2-core machine: run twice and compare.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from flylog.fly import EngineConfig, FlyEngine
+from flylog.fly.fitness import fitness_numba, fitness_numpy
+from flylog.geometry import StereoRig
+from flylog.sensors import SonarReading, StereoPair
+
+SCENE = Path(__file__).resolve().parents[1] / "fixtures" / "scenes" / "clutter.toml"
+
+
+def _frame(rig: StereoRig) -> tuple[StereoPair, np.ndarray, SonarReading | None]:
+    """A 640×480 pair, its left depth and a sonar reading, from the simulator's renderer."""
+    from flylog.scene.load import load_scene
+    from flylog.sim.render import Renderer
+    from flylog.sim.sonar import true_sonar_ranges
+
+    scene = load_scene(SCENE)
+    frame = Renderer(scene, rig).render(scene.start_pose)
+    s = scene.spec.sonar
+    ranges = true_sonar_ranges(scene, s, scene.start_pose)
+    reading = SonarReading(0, ranges, s.mounts(), math.radians(s.cone_deg), s.max_range)
+    return StereoPair(0, frame.left, frame.right), frame.depth.astype(float), reading
+
+
+def _best_rate(fn, count: int, repeats: int) -> float:
+    best = math.inf
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return count / best
+
+
+def _on_surface_share(xyz, fitness, depth, rig) -> float:
+    top = xyz[fitness > np.median(fitness)]
+    u, _, v, d = rig.project(top)
+    ui = np.clip(np.floor(u + 0.5).astype(int), 0, rig.width - 1)
+    vi = np.clip(np.floor(v + 0.5).astype(int), 0, rig.height - 1)
+    return float(np.mean(np.abs(d - depth[vi, ui]) <= 0.05 * d))
+
+
+def _fitness_figures(pair: StereoPair, rig: StereoRig) -> list[dict]:
+    rng = np.random.default_rng(0)
+    n = 1_000_000
+    u, v = rng.uniform(3, rig.width - 4, n), rng.uniform(3, rig.height - 4, n)
+    xyz = rig.backproject(u, v, 1.0 / rng.uniform(1 / 20.0, 1 / 0.5, n))
+    out = np.empty(n)
+    index = np.arange(n)
+    fitness_numba(pair.left, pair.right, xyz[:1000], rig, 7, 1.0)  # compile
+    numba_rate = _best_rate(
+        lambda: fitness_numba(pair.left, pair.right, xyz, rig, 7, 1.0, index=index, out=out),
+        n,
+        5,
+    )
+    m = 50_000
+    numpy_rate = _best_rate(
+        lambda: fitness_numpy(pair.left, pair.right, xyz[:m], rig, 7, 1.0), m, 3
+    )
+    small = np.arange(2500)
+    serial_rate = _best_rate(
+        lambda: fitness_numba(pair.left, pair.right, xyz, rig, 7, 1.0, index=small, out=out),
+        2500,
+        50,
+    )
+    return [
+        {
+            "name": "fitness evaluations, numba parallel (7×7 RGB, 640×480)",
+            "value": numba_rate,
+            "unit": "eval/s",
+            "reference": "numpy gather",
+            "ratio": numba_rate / numpy_rate,
+            "note": f"{(out[index] > 0).mean():.0%} of the random flies valid",
+        },
+        {"name": "fitness evaluations, numpy gather", "value": numpy_rate, "unit": "eval/s"},
+        {
+            "name": "fitness evaluations, numba serial batches of 2500 (as in a generation)",
+            "value": serial_rate,
+            "unit": "eval/s",
+        },
+    ]
+
+
+def _generation_figures(pair, depth, reading, rig) -> list[dict]:
+    engine = FlyEngine(EngineConfig(flies=5000), rig, np.random.default_rng(0))
+    engine.set_images(pair)
+    if reading is not None:
+        engine.set_sonar(reading)
+    for _ in range(20):
+        engine.step()
+    gens = 300
+    rate = _best_rate(lambda: [engine.step() for _ in range(gens)], gens, 3)
+    # Time to the convergence figure (80 % of the top half within 5 % of the true depth),
+    # from a fresh population; the share is checked between generations, off the clock.
+    engine = FlyEngine(EngineConfig(flies=5000), rig, np.random.default_rng(1))
+    engine.set_images(pair)
+    spent, generations, share = 0.0, 0, 0.0
+    while share < 0.8 and generations < 200:
+        t0 = time.perf_counter()
+        engine.step()
+        spent += time.perf_counter() - t0
+        generations += 1
+        pop = engine.population
+        share = _on_surface_share(pop.xyz, pop.fitness, depth, rig)
+    grey_l = cv2.cvtColor(pair.left, cv2.COLOR_RGB2GRAY)
+    grey_r = cv2.cvtColor(pair.right, cv2.COLOR_RGB2GRAY)
+    sgbm = cv2.StereoSGBM_create(
+        minDisparity=0, numDisparities=64, blockSize=7, mode=cv2.STEREO_SGBM_MODE_SGBM_3WAY
+    )
+    sgbm.compute(grey_l, grey_r)
+    sgbm_time = min(
+        (lambda t0: (sgbm.compute(grey_l, grey_r), time.perf_counter() - t0)[1])(
+            time.perf_counter()
+        )
+        for _ in range(5)
+    )
+    return [
+        {
+            "name": "generations per second, 5000 flies, every operator on (sonar too)",
+            "value": rate,
+            "unit": "gen/s",
+        },
+        {
+            "name": "engine time to converge on one 640×480 frame",
+            "value": spent,
+            "unit": "s",
+            "reference": "OpenCV StereoSGBM 3WAY, 64 disparities, same frame",
+            "ratio": spent / sgbm_time,
+            "note": f"{generations} generations to share {share:.2f}; "
+            f"SGBM {sgbm_time * 1e3:.1f} ms",
+        },
+    ]
+
+
+_COMPILE_PROBE = """
+import time, json
+t0 = time.perf_counter()
+import numpy as np
+from flylog.fly import EngineConfig, FlyEngine
+from flylog.geometry import StereoRig
+from flylog.sensors import StereoPair
+t1 = time.perf_counter()
+rig = StereoRig(width=64, height=48, focal_px=50.0)
+img = np.random.default_rng(0).integers(0, 256, (48, 64, 3), dtype=np.uint8)
+engine = FlyEngine(EngineConfig(flies=100), rig, np.random.default_rng(0))
+engine.set_images(StereoPair(0, img, img))
+engine.step()
+t2 = time.perf_counter()
+print(json.dumps({"import": t1 - t0, "first_step": t2 - t1}))
+"""
+
+
+def _compile_figures() -> list[dict]:
+    with tempfile.TemporaryDirectory() as cache:
+        env = {**os.environ, "NUMBA_CACHE_DIR": cache}
+        command = [sys.executable, "-c", _COMPILE_PROBE]
+        runs = [
+            json.loads(subprocess.run(command, env=env, check=True, capture_output=True).stdout)
+            for _ in range(2)
+        ]
+    cold, warm = runs[0]["first_step"], runs[1]["first_step"]
+    return [
+        {"name": "numba compile at first use (empty cache)", "value": cold, "unit": "s"},
+        {
+            "name": "first step in a second process (cache=True)",
+            "value": warm,
+            "unit": "s",
+            "reference": "empty cache",
+            "ratio": warm / cold,
+        },
+    ]
+
+
+def run(out_dir: Path) -> list[dict]:
+    rig = StereoRig()
+    pair, depth, reading = _frame(rig)
+    return (
+        _fitness_figures(pair, rig)
+        + _generation_figures(pair, depth, reading, rig)
+        + _compile_figures()
+    )

@@ -1,0 +1,96 @@
+"""The fly engine's configuration: one frozen dataclass, every default written once."""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+
+from flylog.config import param
+
+
+class Backend(enum.Enum):
+    """Which implementation of the hot kernels the engine runs (results are identical)."""
+
+    NUMBA = "numba"
+    NUMPY = "numpy"
+
+
+@dataclass(frozen=True)
+class EngineConfig:
+    """The fly algorithm (paper §2.1, §2.2, §3.2, §3.4); each feature can be switched off."""
+
+    flies: int = param(5000, help="population size", min=16, max=10_000_000)
+    d_min: float = param(0.5, help="nearest depth searched (initialisation)", unit="m", min=0.01)
+    d_max: float = param(20.0, help="farthest depth searched (initialisation)", unit="m")
+    window: int = param(
+        7, help="side of the square fitness neighbourhood (odd)", unit="px", min=3, max=31
+    )
+    guard: float = param(
+        1.0,
+        help="added to the zero-mean SSD per pixel and channel, so a perfect match stays finite",
+        unit="grey level²",
+        min=1e-6,
+    )
+    elite_fraction: float = param(
+        0.5, help="fraction of the population kept by elitist selection", min=0.01, max=0.99
+    )
+    sharing: bool = param(True, help="2-D sharing in the left image")
+    sharing_coefficient: float = param(
+        0.1,
+        help="K: fitness lowered by K·n·(median fitness), n = neighbours within R px",
+        min=0.0,
+    )
+    mutation_scale: float = param(
+        1.0, help="σ of the image-position mutation, in units of the sharing radius R", min=0.0
+    )
+    disparity_mutation_scale: float = param(
+        0.5, help="σ of the disparity (inverse-depth) mutation, in units of R", min=0.0
+    )
+    crossover2: bool = param(True, help="two-parent barycentric crossover")
+    crossover2_rate: float = param(
+        0.1, help="share of offspring made by two-parent crossover", min=0.0, max=1.0
+    )
+    crossover3: bool = param(True, help="three-parent barycentric crossover")
+    crossover3_rate: float = param(
+        0.1, help="share of offspring made by three-parent crossover", min=0.0, max=1.0
+    )
+    immigration_fraction: float = param(
+        0.02,
+        help="fraction of the population replaced by random flies each generation",
+        min=0.0,
+        max=0.5,
+    )
+    sonar_fitness: bool = param(True, help="multiply the fitness of sonar-confirmed flies")
+    sonar_bonus: float = param(
+        0.5, help="B: a fly matching a fired sonar has fitness × (1 + B)", min=0.0
+    )
+    sonar_tolerance: float = param(
+        0.1, help="how far a fly's distance may be from the sonar range", unit="m", min=0.0
+    )
+    sonar_immigration: bool = param(True, help="place some immigrants on fired sonars' arcs")
+    sonar_immigration_fraction: float = param(
+        0.5, help="share of the immigrants placed on sonar arcs", min=0.0, max=1.0
+    )
+    proprioception: bool = param(True, help="move the flies by the inverse odometry increment")
+    backend: Backend = param(Backend.NUMBA, help="kernel implementation (numba or numpy)")
+
+    def __post_init__(self) -> None:
+        if self.window % 2 != 1:
+            msg = f"window must be odd, got {self.window}"
+            raise ValueError(msg)
+        if not self.d_min < self.d_max:
+            msg = f"d_min ({self.d_min} m) must be below d_max ({self.d_max} m)"
+            raise ValueError(msg)
+        if self.crossover2_rate + self.crossover3_rate > 1.0:
+            msg = "crossover2_rate + crossover3_rate must not exceed 1"
+            raise ValueError(msg)
+
+    @property
+    def survivors(self) -> int:
+        """How many flies elitist selection keeps."""
+        return max(1, min(self.flies - 1, round(self.elite_fraction * self.flies)))
+
+    @property
+    def immigrants(self) -> int:
+        """How many random flies enter each generation."""
+        return min(self.flies - self.survivors, round(self.immigration_fraction * self.flies))

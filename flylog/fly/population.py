@@ -1,0 +1,84 @@
+"""The fly population as a structure of arrays, and uniform sampling of new flies."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from flylog.fly.fitness import INVALID_FITNESS
+from flylog.geometry import StereoRig
+
+
+@dataclass
+class Population:
+    """N flies in base_link. Row i of every array describes fly i.
+
+    ``vision`` is the image-only fitness, valid for the image pair of ``stamp_ns`` unless
+    ``stale``; ``fitness`` is the fused one (vision × sonar bonus), what selection (before
+    sharing), obstacle extraction and the logs use. Both are :data:`INVALID_FITNESS` for a fly
+    outside either image or behind the cameras, and for a fly not evaluated yet.
+    """
+
+    xyz: np.ndarray  # (N, 3) float64, metres
+    fitness: np.ndarray  # (N,) float64
+    vision: np.ndarray  # (N,) float64
+    stale: np.ndarray  # (N,) bool: vision must be recomputed
+    stamp_ns: np.ndarray  # (N,) int64: stamp of the images vision was computed on, -1 = never
+    age: np.ndarray  # (N,) int32: generations survived
+
+    @classmethod
+    def fresh(cls, xyz: np.ndarray) -> Population:
+        """New, not yet evaluated flies at ``xyz``."""
+        n = len(xyz)
+        return cls(
+            xyz=np.ascontiguousarray(xyz, dtype=np.float64),
+            fitness=np.full(n, INVALID_FITNESS),
+            vision=np.full(n, INVALID_FITNESS),
+            stale=np.ones(n, dtype=bool),
+            stamp_ns=np.full(n, -1, dtype=np.int64),
+            age=np.zeros(n, dtype=np.int32),
+        )
+
+    def __len__(self) -> int:
+        return len(self.xyz)
+
+    def copy(self, *, readonly: bool = False) -> Population:
+        """A deep copy (optionally with read-only arrays, for handing out snapshots)."""
+        out = Population(
+            *(np.array(a, copy=True) for a in (self.xyz, self.fitness, self.vision)),
+            *(np.array(a, copy=True) for a in (self.stale, self.stamp_ns, self.age)),
+        )
+        if readonly:
+            for a in (out.xyz, out.fitness, out.vision, out.stale, out.stamp_ns, out.age):
+                a.flags.writeable = False
+        return out
+
+    def survivors_then(self, keep: np.ndarray, newcomers: np.ndarray) -> Population:
+        """The flies ``keep`` (one generation older), followed by fresh flies ``newcomers``."""
+        new = Population.fresh(newcomers)
+        return Population(
+            xyz=np.concatenate([self.xyz[keep], new.xyz]),
+            fitness=np.concatenate([self.fitness[keep], new.fitness]),
+            vision=np.concatenate([self.vision[keep], new.vision]),
+            stale=np.concatenate([self.stale[keep], new.stale]),
+            stamp_ns=np.concatenate([self.stamp_ns[keep], new.stamp_ns]),
+            age=np.concatenate([self.age[keep] + 1, new.age]),
+        )
+
+
+def sharing_radius(n_pixels: int, n_flies: int) -> float:
+    """R = ½(√(N_pixels / N_flies) − 1) px (paper §2.1.2), never negative."""
+    return max(0.0, 0.5 * (math.sqrt(n_pixels / n_flies) - 1.0))
+
+
+def random_flies(
+    rng: np.random.Generator, rig: StereoRig, n: int, *, d_min: float, d_max: float, margin: int
+) -> np.ndarray:
+    """(n, 3) flies whose left projections are uniform in the image (``margin`` px inside
+    its border) and whose inverse depth 1/z is uniform in [1/d_max, 1/d_min] (paper §2.1.2)."""
+    u = rng.uniform(margin, rig.width - 1 - margin, n)
+    v = rng.uniform(margin, rig.height - 1 - margin, n)
+    inv_depth = rng.uniform(1.0 / d_max, 1.0 / d_min, n)
+    return rig.backproject(u, v, 1.0 / inv_depth)

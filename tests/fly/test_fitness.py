@@ -1,0 +1,119 @@
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from flylog.fly.fitness import INVALID_FITNESS, fitness_numba, fitness_numpy
+from flylog.geometry import StereoRig
+from tests.fly.analytic import render, room
+
+SMALL = StereoRig(width=64, height=48, focal_px=50.0, baseline=0.12)
+
+
+def _numba_serial(*args):
+    return fitness_numba(*args, parallel_min=10**9)
+
+
+def _numba_parallel(*args):
+    return fitness_numba(*args, parallel_min=0)
+
+
+IMPLEMENTATIONS = [fitness_numpy, _numba_serial, _numba_parallel]
+
+
+@st.composite
+def cases(draw):
+    seed = draw(st.integers(0, 2**32 - 1))
+    channels = draw(st.sampled_from([1, 3]))
+    window = draw(st.sampled_from([3, 5, 7, 9]))
+    rng = np.random.default_rng(seed)
+    shape = (SMALL.height, SMALL.width) + ((3,) if channels == 3 else ())
+    left = rng.integers(0, 256, shape, dtype=np.uint8)
+    right = rng.integers(0, 256, shape, dtype=np.uint8)
+    n = draw(st.integers(1, 60))
+    # Projections from well outside to well inside, depths from behind to far.
+    u = rng.uniform(-20, SMALL.width + 20, n)
+    v = rng.uniform(-20, SMALL.height + 20, n)
+    depth = rng.choice([-1.0, 0.0, 1.0], n) * rng.uniform(0.05, 10.0, n)
+    xyz = SMALL.backproject(u, v, np.where(depth == 0, 1.0, depth))
+    xyz[depth == 0, 0] = SMALL.mount_x  # exactly in the camera plane
+    return left, right, xyz, window
+
+
+@settings(max_examples=60, deadline=None)
+@given(cases())
+def test_numba_kernel_equals_numpy_reference(case):
+    left, right, xyz, window = case
+    expected = fitness_numpy(left, right, xyz, SMALL, window, 1.0)
+    for impl in (_numba_serial, _numba_parallel):
+        np.testing.assert_array_equal(impl(left, right, xyz, SMALL, window, 1.0), expected)
+
+
+@pytest.fixture(scope="module")
+def frame():
+    rig = StereoRig(width=160, height=120, focal_px=125.0)
+    pair, depth = render(room(((2.0, -0.3, 0.0), (2.1, 0.5, 0.9))), rig)
+    return rig, pair, depth
+
+
+@pytest.mark.parametrize("impl", IMPLEMENTATIONS)
+def test_fly_on_surface_beats_same_fly_off_it(impl, frame):
+    rig, pair, depth = frame
+    rng = np.random.default_rng(3)
+    u = rng.uniform(10, rig.width - 11, 400)
+    v = rng.uniform(10, rig.height - 11, 400)
+    # Pixel centres, so the fly's rounded projections are exactly the rendered pixels.
+    u, v = np.round(u), np.round(v)
+    z = depth[v.astype(int), u.astype(int)]
+    on = impl(pair.left, pair.right, rig.backproject(u, v, z), rig, 7, 1.0)
+    for factor in (0.8, 1.25):
+        off = impl(pair.left, pair.right, rig.backproject(u, v, z * factor), rig, 7, 1.0)
+        both = (on > 0) & (off > 0)
+        assert both.sum() > 300
+        assert np.mean(on[both] > off[both]) > 0.95
+
+
+@pytest.mark.parametrize("impl", IMPLEMENTATIONS)
+def test_grey_and_colour_agree_on_flat_grey_texture(impl):
+    rng = np.random.default_rng(0)
+    grey = rng.integers(0, 256, (SMALL.height, SMALL.width), dtype=np.uint8)
+    colour = np.repeat(grey[:, :, None], 3, axis=2)
+    xyz = SMALL.backproject(np.array([30.0]), np.array([20.0]), np.array([2.0]))
+    g = impl(grey, np.roll(grey, -3, axis=1), xyz, SMALL, 5, 1.0)
+    c = impl(colour, np.roll(colour, -3, axis=1), xyz, SMALL, 5, 1.0)
+    # Three identical channels: gradient norm × √3 (G × 3^¼), denominator × 3.
+    assert c[0] == pytest.approx(g[0] * 3**0.25 / 3)
+
+
+@pytest.mark.parametrize("impl", IMPLEMENTATIONS)
+def test_known_patch_value(impl):
+    # A horizontal ramp L(u) = 10u, shifted by the fly's disparity in R plus a constant:
+    # the zero-mean SSD is exactly 0 and Sobel gx = 4·10·... per channel.
+    rig = StereoRig(width=32, height=24, focal_px=30.0, baseline=0.1)
+    u = np.arange(rig.width)
+    left = np.tile((5 * u).astype(np.uint8), (rig.height, 1))
+    disparity = 3
+    right = np.tile((5 * (u + disparity) + 7).astype(np.uint8), (rig.height, 1))
+    depth = rig.focal_px * rig.baseline / disparity
+    xyz = rig.backproject(np.array([12.0]), np.array([10.0]), np.array([depth]))
+    got = impl(left, right, xyz, rig, 5, 0.5)
+    gx = 2 * 5 * (1 + 2 + 1)  # Sobel on a ramp of slope 5
+    assert got[0] == pytest.approx(np.sqrt(gx) / (0.5 * 25))
+
+
+@pytest.mark.parametrize("impl", IMPLEMENTATIONS)
+def test_invalid_flies_get_lowest_fitness(impl, frame):
+    rig, pair, _ = frame
+    h = 3
+    xyz = rig.backproject(
+        np.array([h, h - 1, rig.width - 1 - h, rig.width - h, 80.0, 80.0]),
+        np.array([60.0, 60.0, 60.0, 60.0, h - 1, 60.0]),
+        np.array([50.0, 50.0, 50.0, 50.0, 2.0, 2.0]),
+    )
+    behind = xyz[5].copy()
+    behind[0] = rig.mount_x - 1.0
+    xyz[5] = behind
+    got = impl(pair.left, pair.right, xyz, rig, 7, 1.0)
+    # Far flies: right projection ≈ left one; u = h is the first column whose window fits.
+    assert got[0] >= 0 and got[2] >= 0
+    assert list(got[[1, 3, 4, 5]]) == [INVALID_FITNESS] * 4

@@ -1,0 +1,115 @@
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from flylog.fly.fusion import (
+    _fired_sonars,
+    moved_by_odometry,
+    sonar_confirmations,
+    sonar_confirmations_numba,
+    sonar_confirmations_numpy,
+    sonar_fused,
+    sonar_immigrants,
+)
+from flylog.geometry import Pose2D, StereoRig, compose
+from flylog.sensors import SonarConfig, SonarReading
+
+RIG = StereoRig()
+MOUNTS = SonarConfig().mounts()
+
+
+def reading(ranges) -> SonarReading:
+    return SonarReading(0, np.asarray(ranges, float), MOUNTS, math.radians(15.0), 3.0)
+
+
+def test_confirmation_known_geometry():
+    # Sonar 3 looks 10° left; a fly 1.0 m along its axis, with range 1.0 m measured.
+    mx, my, yaw = MOUNTS[3]
+    r = reading([np.nan, np.nan, np.nan, 1.0, np.nan, np.nan])
+
+    def at(dist, bearing, z=0.2):
+        return [mx + dist * math.cos(yaw + bearing), my + dist * math.sin(yaw + bearing), z]
+
+    xyz = np.array(
+        [
+            at(1.0, 0.0),  # on the axis, right range
+            at(1.05, math.radians(7.0)),  # in the cone, within tolerance
+            at(1.0, math.radians(8.0)),  # outside the 7.5° half angle
+            at(1.3, 0.0),  # range too far off
+            at(1.0, 0.0, z=1.5),  # the cone is 2-D: height does not matter
+        ]
+    )
+    for use_numba in (True, False):
+        got = sonar_confirmations(xyz, r, 0.1, use_numba=use_numba)
+        assert list(got) == [1, 1, 0, 0, 1]
+    unfired = reading([np.nan] * 6)
+    assert sonar_confirmations(xyz, unfired, 0.1).sum() == 0
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_confirmation_kernel_equals_reference(seed):
+    rng = np.random.default_rng(seed)
+    ranges = np.where(rng.random(6) < 0.6, rng.uniform(0.2, 3.0, 6), np.nan)
+    xyz = np.column_stack([rng.uniform(-1, 3.5, 500), rng.uniform(-3, 3, 500), rng.random(500)])
+    sonars = _fired_sonars(reading(ranges))
+    cos_half = math.cos(math.radians(7.5))
+    np.testing.assert_array_equal(
+        sonar_confirmations_numba(xyz, sonars, cos_half, 0.15),
+        sonar_confirmations_numpy(xyz, sonars, cos_half, 0.15),
+    )
+
+
+def test_fusion_multiplies_only_positive_confirmed_fitness():
+    mx, my, yaw = MOUNTS[0]
+    on = [mx + math.cos(yaw), my + math.sin(yaw), 0.3]
+    xyz = np.array([on, on, [5.0, 0.0, 0.3]])
+    vision = np.array([2.0, -1.0, 2.0])
+    got = sonar_fused(vision, xyz, reading([1.0] + [np.nan] * 5), bonus=0.5, tolerance=0.1)
+    assert list(got) == [3.0, -1.0, 2.0]
+
+
+def test_sonar_immigrants_on_arc_in_cone_and_in_view():
+    rng = np.random.default_rng(0)
+    r = reading([np.nan, np.nan, 1.2, 2.0, np.nan, np.nan])
+    xyz = sonar_immigrants(rng, r, 500, RIG, tolerance=0.1, margin=3)
+    assert len(xyz) == 500
+    counts = sonar_confirmations(xyz, r, 0.1 + 1e-9)
+    assert (counts >= 1).all()
+    u, ur, v, depth = RIG.project(xyz)
+    assert (depth > 0).all() and (u >= 3).all() and (ur >= 3).all()
+    assert (u <= RIG.width - 4).all() and (v >= 3).all() and (v <= RIG.height - 4).all()
+    assert xyz[:, 2].min() >= 0 and xyz[:, 2].max() <= RIG.mount_height
+    # Both fired sonars get immigrants.
+    assert set(np.unique(sonar_confirmations(xyz[:, :], reading([np.nan, np.nan, 1.2, np.nan,
+               np.nan, np.nan]), 0.1 + 1e-9))) == {0, 1}  # fmt: skip
+
+
+def test_sonar_immigrants_none_when_arc_out_of_view():
+    rng = np.random.default_rng(0)
+    # Sonar 0 looks 50° right, outside the cameras' ±32.6° field of view.
+    xyz = sonar_immigrants(rng, reading([1.0] + [np.nan] * 5), 50, RIG, tolerance=0.1, margin=3)
+    assert len(xyz) == 0
+
+
+def test_proprioception_moves_flies_by_inverse_motion():
+    world = np.array([[3.0, 1.0, 0.4], [1.0, -2.0, 0.1]])
+    start = Pose2D(0.5, -0.2, 0.3)
+    step = Pose2D(0.2, 0.05, math.radians(-1.0))
+    end = compose(start, step)
+
+    def in_robot(pose, pts):
+        c, s = math.cos(pose.theta), math.sin(pose.theta)
+        d = pts[:, :2] - [pose.x, pose.y]
+        return np.column_stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1], pts[:, 2]])
+
+    moved = moved_by_odometry(in_robot(start, world), step)
+    np.testing.assert_allclose(moved, in_robot(end, world), atol=1e-12)
+
+
+def test_forward_motion_brings_flies_closer():
+    got = moved_by_odometry(np.array([[3.0, 0.5, 0.2]]), Pose2D(1.0, 0.0, 0.0))
+    assert got[0] == pytest.approx([2.0, 0.5, 0.2])

@@ -1,0 +1,134 @@
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from flylog.fly.operators import (
+    crossover2,
+    crossover3,
+    mutated,
+    neighbour_counts_numba,
+    neighbour_counts_numpy,
+    offspring,
+    shared_fitness,
+    survivor_indices,
+)
+from flylog.fly.population import random_flies, sharing_radius
+from flylog.geometry import StereoRig
+
+RIG = StereoRig()
+
+
+def test_initialisation_uniform_in_left_image_and_inverse_depth():
+    rng = np.random.default_rng(0)
+    xyz = random_flies(rng, RIG, 200_000, d_min=0.5, d_max=20.0, margin=3)
+    u, _, v, depth = RIG.project(xyz)
+    assert u.min() >= 3 and u.max() <= RIG.width - 4
+    assert v.min() >= 3 and v.max() <= RIG.height - 4
+    inv = 1.0 / depth
+    assert inv.min() >= 1 / 20.0 - 1e-12 and inv.max() <= 1 / 0.5 + 1e-12
+    # Uniform: deciles of each coordinate are evenly spaced (within sampling noise).
+    for x, lo, hi in ((u, 3, RIG.width - 4), (v, 3, RIG.height - 4), (inv, 1 / 20, 1 / 0.5)):
+        deciles = np.quantile(x, np.linspace(0.1, 0.9, 9))
+        np.testing.assert_allclose(deciles, lo + (hi - lo) * np.linspace(0.1, 0.9, 9), rtol=0.01)
+
+
+def test_sharing_radius_formula():
+    assert sharing_radius(640 * 480, 5000) == pytest.approx(0.5 * (math.sqrt(61.44) - 1))
+    assert sharing_radius(100, 1000) == 0.0
+
+
+def test_selection_keeps_the_best_fraction_best_first():
+    fitness = np.array([0.1, 0.9, -1.0, 0.5, 0.5, 0.3])
+    assert list(survivor_indices(fitness, 3)) == [1, 3, 4]
+    assert list(survivor_indices(fitness, 6)) == [1, 3, 4, 5, 0, 2]
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.floats(0.0, 12.0), st.integers(1, 400))
+def test_grid_hash_counts_equal_brute_force(seed, radius, n):
+    rng = np.random.default_rng(seed)
+    u = np.round(rng.normal(60, 15, n), 1)  # rounded: exact ties at the radius happen
+    v = np.round(rng.normal(40, 10, n), 1)
+    valid = rng.random(n) < 0.85
+    expected = neighbour_counts_numpy(u, v, valid, radius)
+    np.testing.assert_array_equal(neighbour_counts_numba(u, v, valid, radius), expected)
+
+
+def test_sharing_lowers_crowded_flies_by_k_n_median():
+    fitness = np.array([2.0, 4.0, 6.0, -1.0])
+    counts = np.array([0, 3, 1, 5])
+    got = shared_fitness(fitness, counts, 0.1)
+    np.testing.assert_allclose(got, [2.0, 4.0 - 0.1 * 3 * 4.0, 6.0 - 0.1 * 4.0, -1.0])
+
+
+def test_mutation_is_gaussian_in_image_and_disparity():
+    rng = np.random.default_rng(1)
+    parent = RIG.backproject(np.array([320.0]), np.array([240.0]), np.array([2.0]))
+    xyz = mutated(
+        rng, np.repeat(parent, 50_000, axis=0), RIG,
+        sigma_px=3.0, sigma_disparity_px=1.5, d_min=0.5, d_max=20.0,
+    )  # fmt: skip
+    u, ur, v, _ = RIG.project(xyz)
+    assert np.std(u) == pytest.approx(3.0, rel=0.02)
+    assert np.std(v) == pytest.approx(3.0, rel=0.02)
+    assert np.std(u - ur) == pytest.approx(1.5, rel=0.02)
+    assert np.mean(u - ur) == pytest.approx(RIG.disparity(2.0), abs=0.05)
+
+
+def test_mutation_keeps_depth_within_search_range():
+    rng = np.random.default_rng(2)
+    parent = RIG.backproject(np.array([320.0]), np.array([240.0]), np.array([0.55]))
+    xyz = mutated(
+        rng, np.repeat(parent, 1000, axis=0), RIG,
+        sigma_px=1.0, sigma_disparity_px=50.0, d_min=0.5, d_max=20.0,
+    )  # fmt: skip
+    depth = xyz[:, 0] - RIG.mount_x
+    assert depth.min() >= 0.5 - 1e-9 and depth.max() <= 20.0 + 1e-9
+
+
+def test_two_parent_crossover_lies_on_the_segment():
+    rng = np.random.default_rng(3)
+    a, b = rng.normal(size=(1000, 3)), rng.normal(size=(1000, 3))
+    child = crossover2(rng, a, b)
+    lam = np.sum((child - b) * (a - b), axis=1) / np.sum((a - b) ** 2, axis=1)
+    np.testing.assert_allclose(child, lam[:, None] * a + (1 - lam[:, None]) * b, atol=1e-12)
+    assert lam.min() >= 0 and lam.max() <= 1 and lam.std() > 0.25  # U[0,1]: σ ≈ 0.29
+
+
+def test_three_parent_crossover_lies_in_the_triangle():
+    rng = np.random.default_rng(4)
+    a, b, c = (rng.normal(size=(2000, 3)) for _ in range(3))
+    child = crossover3(rng, a, b, c)
+    # Barycentric coordinates by least squares on the two edge vectors.
+    weights = []
+    for i in range(len(child)):
+        m = np.stack([a[i] - c[i], b[i] - c[i]], axis=1)
+        lam_mu, *_ = np.linalg.lstsq(m, child[i] - c[i], rcond=None)
+        weights.append(lam_mu)
+    w = np.array(weights)
+    np.testing.assert_allclose(child, w[:, :1] * a + w[:, 1:] * b + (1 - w.sum(1))[:, None] * c,
+                               atol=1e-9)  # fmt: skip
+    assert w.min() >= -1e-9 and w.sum(axis=1).max() <= 1 + 1e-9
+    # Uniform on the triangle: each weight has mean 1/3.
+    np.testing.assert_allclose(w.mean(axis=0), [1 / 3, 1 / 3], atol=0.02)
+
+
+@pytest.mark.parametrize(("rate2", "rate3"), [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (0.3, 0.3)])
+def test_offspring_operator_shares(rate2, rate3):
+    rng = np.random.default_rng(5)
+    # Parents on three distinct depths far apart: mutation (σ = 0) copies a parent exactly
+    # in depth, crossovers land between them.
+    parents = RIG.backproject(np.array([300.0, 320, 340]), np.array([240.0] * 3), np.array(
+        [1.0, 2.0, 4.0]))  # fmt: skip
+    kids = offspring(
+        rng, parents, 20_000, RIG, rate2=rate2, rate3=rate3,
+        sigma_px=0.0, sigma_disparity_px=0.0, d_min=0.5, d_max=20.0,
+    )  # fmt: skip
+    depth = kids[:, 0] - RIG.mount_x
+    copies = np.isclose(depth[:, None], [1.0, 2.0, 4.0], rtol=1e-9).any(axis=1)
+    # Crossover of two equal parents is also a copy: P = 1/3 with 3 parents drawn uniformly.
+    expected = 1 - rate2 * (2 / 3) - rate3 * (1 - 3 / 27)
+    assert copies.mean() == pytest.approx(expected, abs=0.015)
