@@ -27,7 +27,8 @@ bench: $(STAMP)
 	$(BIN)/python -m benchmarks
 
 fixtures: $(STAMP)
-	$(BIN)/python -m flylog.fixtures
+	$(BIN)/python fixtures/regenerate.py
 
 clean:
 	rm -rf $(VENV) $(DEMO_DIR) .pytest_cache
+	find flylog cli -name "*.nb[ic]" -delete  # numba caches

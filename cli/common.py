@@ -38,14 +38,14 @@ def reports_errors(fn: F) -> F:
         from flylog.errors import FlylogError
 
         def show_warning(message, category, filename, lineno, file=None, line=None):
-            stderr.print(f"[yellow]warning:[/] {message}")
+            stderr.print(f"[yellow]warning:[/] {message}", soft_wrap=True)
 
         previous = warnings.showwarning
         warnings.showwarning = show_warning
         try:
             return fn(*args, **kwargs)
         except FlylogError as exc:
-            stderr.print(f"[red]error:[/] {exc}")
+            stderr.print(f"[red]error:[/] {exc}", soft_wrap=True)
             sys.exit(EXIT_BAD_INPUT)
         except KeyboardInterrupt:
             stderr.print("[red]interrupted[/]: no output was written")
@@ -57,25 +57,29 @@ def reports_errors(fn: F) -> F:
 
 
 @contextmanager
-def progress_bar(description: str, total: float, unit: str) -> Iterator[Callable[[float], None]]:
-    """A rich progress bar; yields ``advance_to(done)``. Hidden when stderr is not a terminal."""
+def progress_bar(description: str, unit: str) -> Iterator[Callable[[float, float], None]]:
+    """A rich progress bar with ETA on stderr; yields ``update(done, total)`` in ``unit``
+    (e.g. "frames", "s" of log time). Hidden when stderr is not a terminal."""
+    count = (
+        MofNCompleteColumn()
+        if unit == "frames"
+        else TextColumn("{task.completed:.1f}/{task.total:.1f} " + unit)
+    )
     columns = (
         TextColumn("[bold]{task.description}"),
         BarColumn(),
-        MofNCompleteColumn()
-        if unit == "frames"
-        else TextColumn("{task.completed:.1f}/{task.total:.1f} " + unit),
+        count,
         TimeElapsedColumn(),
         TextColumn("ETA"),
         TimeRemainingColumn(),
     )
-    with Progress(*columns, console=stderr, transient=False, disable=not stderr.is_terminal) as bar:
-        task = bar.add_task(description, total=total)
+    with Progress(*columns, console=stderr, disable=not stderr.is_terminal) as bar:
+        task = bar.add_task(description, total=None)
 
-        def advance_to(done: float) -> None:
-            bar.update(task, completed=min(done, total))
+        def update(done: float, total: float) -> None:
+            bar.update(task, completed=done, total=total)
 
-        yield advance_to
+        yield update
 
 
 def resolution(
