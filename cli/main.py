@@ -10,6 +10,10 @@ import click
 # command name → (module in flylog.cli, function name)
 _COMMANDS = {
     "simulate": ("simulate", "simulate"),
+    "replay": ("replay", "replay"),
+    "metrics": ("metrics", "metrics"),
+    "compare": ("compare", "compare"),
+    "export": ("export", "export"),
 }
 
 

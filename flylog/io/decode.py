@@ -110,6 +110,8 @@ def fly_cloud(msg: Any) -> FlyCloud:
         raise LogError(msg_)
     stride, data = msg.point_stride, msg.data
     count = len(data) // stride
+    if count == 0:  # numpy refuses a view with an offset into an empty buffer
+        return FlyCloud(np.empty((0, 3), np.float32), np.empty(0, np.float32))
     fx, fy, fz = fields["x"], fields["y"], fields["z"]
     f32 = 7
     if (fx.type, fy.type, fz.type) == (f32, f32, f32) and (fy.offset, fz.offset) == (

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import enum
 import heapq
-from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -63,7 +62,104 @@ class ClockStats:
     generations: int = 0
     evaluations: int = 0
     frames: int = 0
-    end_ns: int = 0
+    now_ns: int = 0
+
+
+class VirtualClock:
+    """Push-based: ``feed`` records in log order, ``advance_to`` a time, ``finish`` at the end.
+
+    Feeding a record stamped ``s`` first advances to ``s - 1``: every record that can be
+    available before ``s`` has then been fed (availability is never before the stamp), so a
+    generation never starts without data it should have seen. The simulator's closed loop
+    uses the same clock, feeding records as it produces them.
+    """
+
+    def __init__(self, pipeline: Pipeline, config: ClockConfig) -> None:
+        if config.evals_per_second <= 0:
+            msg = "evals_per_second must be positive"
+            raise ValueError(msg)
+        self.pipeline = pipeline
+        self.config = config
+        self.stats = ClockStats()
+        self._pending: list[tuple[int, int, object]] = []
+        self._index = 0
+        self._ticks: list[tuple[int, str]] = []
+        self._started = False
+        self._have_pair = False
+
+    def feed(self, record: object) -> None:
+        stamp = record.stamp_ns  # type: ignore[attr-defined]
+        if not self._started:
+            self._started = True
+            self.stats.now_ns = stamp
+            self._ticks = [(stamp, name) for name in sorted(self.config.tick_periods_ns)]
+        else:
+            self.advance_to(stamp - 1)
+        heapq.heappush(self._pending, (_available_at(record, self.config), self._index, record))
+        self._index += 1
+
+    def advance_to(self, t_ns: int) -> None:
+        """Run generations starting at or before ``t_ns``, and fire the ticks due meanwhile."""
+        if not self._started:
+            return
+        cfg, stats = self.config, self.stats
+        # PER_FRAME gives every frame its N generations, so it takes frames one at a time even
+        # when it lags; SYNC, like a conventional pipeline, processes the newest complete frame.
+        one_frame_at_a_time = cfg.mode is Mode.PER_FRAME
+        while stats.now_ns <= t_ns:
+            new_pairs = self._deliver(stats.now_ns, stop_after_pair=one_frame_at_a_time)
+            self._have_pair |= new_pairs > 0
+            stats.frames += new_pairs
+            if cfg.mode is Mode.ASYNC:
+                runs = 1 if self._have_pair else 0
+            else:
+                runs = cfg.generations_per_frame if new_pairs > 0 else 0
+            if runs == 0:
+                # Idle until the next record or tick, or until what has been fed runs out.
+                candidates = [t_ns + 1]
+                if self._pending:
+                    candidates.append(self._pending[0][0])
+                if self._ticks:
+                    candidates.append(self._ticks[0][0])
+                nxt = max(min(candidates), stats.now_ns + 1)
+                self._fire_ticks_until(nxt - 1)
+                stats.now_ns = nxt
+                continue
+            for _ in range(runs):
+                evals = self.pipeline.generation()
+                cost = max(1, round(evals * 1e9 / cfg.evals_per_second))
+                # Ticks due while this generation runs see what was published before it.
+                self._fire_ticks_until(stats.now_ns + cost - 1)
+                stats.now_ns += cost
+                stats.generations += 1
+                stats.evaluations += evals
+                if cfg.mode is not Mode.SYNC:
+                    self.pipeline.publish(stats.now_ns)
+            if cfg.mode is Mode.SYNC:
+                self.pipeline.publish(stats.now_ns)
+
+    def finish(self, end_ns: int) -> ClockStats:
+        """Run until ``end_ns`` (the log's end) and fire the ticks due until then."""
+        self.advance_to(end_ns)
+        self._fire_ticks_until(end_ns)
+        return self.stats
+
+    def _deliver(self, t: int, *, stop_after_pair: bool) -> int:
+        pairs = 0
+        while self._pending and self._pending[0][0] <= t:
+            _, _, record = heapq.heappop(self._pending)
+            self.pipeline.deliver(record)
+            if isinstance(record, StereoPair):
+                pairs += 1
+                if stop_after_pair:
+                    break
+        return pairs
+
+    def _fire_ticks_until(self, t: int) -> None:
+        while self._ticks and self._ticks[0][0] <= t:
+            due, name = heapq.heappop(self._ticks)
+            self.pipeline.tick(name, due)
+            heapq.heappush(self._ticks, (due + self.config.tick_periods_ns[name], name))
 
 
 def _available_at(record: object, config: ClockConfig) -> int:
@@ -71,110 +167,3 @@ def _available_at(record: object, config: ClockConfig) -> int:
     if config.mode is Mode.SYNC and isinstance(record, StereoPair):
         return stamp + config.frame_period_ns
     return stamp
-
-
-def run_clock(
-    records: Iterable[object], pipeline: Pipeline, config: ClockConfig, *, end_ns: int
-) -> Iterator[ClockStats]:
-    """Drive ``pipeline`` over time-ordered ``records`` until ``end_ns``.
-
-    Yields the running stats after every generation (the caller shows progress from
-    ``stats.end_ns``). Every loop is bounded by the records and by ``end_ns``.
-    """
-    if config.evals_per_second <= 0:
-        msg = "evals_per_second must be positive"
-        raise ValueError(msg)
-    stats = ClockStats()
-    # Records become available in order of availability; SYNC delays images only, so keep a
-    # small heap ordered by (available time, arrival index) rather than assume log order.
-    pending: list[tuple[int, int, object]] = []
-    source = iter(records)
-    exhausted = False
-    index = 0
-    ticks = [(0, name) for name in sorted(config.tick_periods_ns)]
-    first_ns: int | None = None
-    now = 0
-
-    def pull_until(t: int) -> None:
-        nonlocal exhausted, index, first_ns
-        while not exhausted and (not pending or pending[0][0] <= t):
-            try:
-                record = next(source)
-            except StopIteration:
-                exhausted = True
-                return
-            if first_ns is None:
-                first_ns = record.stamp_ns  # type: ignore[attr-defined]
-            heapq.heappush(pending, (_available_at(record, config), index, record))
-            index += 1
-
-    def fire_ticks_until(t: int) -> None:
-        nonlocal ticks
-        while ticks and ticks[0][0] <= t and ticks[0][0] <= end_ns:
-            due, name = heapq.heappop(ticks)
-            pipeline.tick(name, due)
-            heapq.heappush(ticks, (due + config.tick_periods_ns[name], name))
-
-    def deliver_until(t: int, *, stop_after_pair: bool) -> int:
-        """Deliver the records available at t (up to and including the first stereo pair when
-        ``stop_after_pair``); return how many stereo pairs were delivered."""
-        pairs = 0
-        pull_until(t)
-        while pending and pending[0][0] <= t:
-            _, _, record = heapq.heappop(pending)
-            pipeline.deliver(record)
-            if isinstance(record, StereoPair):
-                pairs += 1
-                if stop_after_pair:
-                    break
-            pull_until(t)
-        return pairs
-
-    pull_until(0)
-    if first_ns is None:
-        return
-    now = first_ns
-    ticks = [(first_ns, name) for name in sorted(config.tick_periods_ns)]
-    heapq.heapify(ticks)
-    have_pair = False
-    # PER_FRAME gives every frame its N generations, so it takes frames one at a time even
-    # when it lags; SYNC, like a conventional pipeline, processes the newest complete frame.
-    one_frame_at_a_time = config.mode is Mode.PER_FRAME
-
-    while now <= end_ns:
-        new_pairs = deliver_until(now, stop_after_pair=one_frame_at_a_time)
-        have_pair |= new_pairs > 0
-        stats.frames += new_pairs
-        if config.mode is Mode.ASYNC:
-            runs = 1 if have_pair else 0
-        else:
-            runs = config.generations_per_frame if new_pairs > 0 else 0
-        if runs == 0:
-            # Nothing to work on: idle until the next record or tick.
-            pull_until(now)
-            candidates = [pending[0][0]] if pending else []
-            if ticks:
-                candidates.append(ticks[0][0])
-            if not candidates or min(candidates) > end_ns:
-                break
-            nxt = max(min(candidates), now)
-            fire_ticks_until(nxt)
-            now = nxt if nxt > now else now + 1
-            continue
-        for _ in range(runs):
-            evals = pipeline.generation()
-            cost = max(1, round(evals * 1e9 / config.evals_per_second))
-            # Ticks due while this generation runs see what was published before it.
-            fire_ticks_until(now + cost - 1)
-            now += cost
-            stats.generations += 1
-            stats.evaluations += evals
-            if config.mode is not Mode.SYNC:
-                pipeline.publish(now)
-            stats.end_ns = now
-            yield stats
-        if config.mode is Mode.SYNC:
-            pipeline.publish(now)
-    fire_ticks_until(end_ns)
-    stats.end_ns = end_ns
-    yield stats

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from flylog.geometry import Pose2D
-from flylog.replay.clock import ClockConfig, Mode, run_clock
+from flylog.replay.clock import ClockConfig, Mode, VirtualClock
 from flylog.sensors import OdomReading, StereoPair
 
 MS = 1_000_000
@@ -53,7 +53,10 @@ def config(mode: Mode, eps: float = 1e6, gpf: int = 1, ticks=None) -> ClockConfi
 
 
 def run(records, pipeline, cfg, end_ns):
-    return list(run_clock(records, pipeline, cfg, end_ns=end_ns))[-1]
+    clock = VirtualClock(pipeline, cfg)
+    for record in records:
+        clock.feed(record)
+    return clock.finish(end_ns)
 
 
 def test_async_runs_back_to_back_on_newest_pair():
@@ -115,4 +118,23 @@ def test_deterministic_and_bounded():
 
 def test_empty_log_runs_nothing():
     rec = Recorder()
-    assert list(run_clock([], rec, config(Mode.ASYNC), end_ns=MS)) == []
+    stats = run([], rec, config(Mode.ASYNC, ticks={"s": MS}), end_ns=10 * MS)
+    assert stats.generations == 0 and rec.ticks == [] and rec.delivered == []
+
+
+def test_incremental_advance_equals_feeding_everything():
+    """The closed loop advances the clock in small steps between records: same result."""
+    whole, steps = Recorder(evals=7_000), Recorder(evals=7_000)
+    cfg = config(Mode.ASYNC, ticks={"planner": 100 * MS})
+    run(frames(4), whole, cfg, end_ns=400 * MS)
+    clock = VirtualClock(steps, cfg)
+    t = 0
+    for record in frames(4):
+        # like the simulator asking for a command every 20 ms, never past the next record
+        while t + 20 * MS < record.stamp_ns:
+            t += 20 * MS
+            clock.advance_to(t)
+        clock.feed(record)
+    clock.finish(400 * MS)
+    assert steps.generations == whole.generations
+    assert steps.ticks == whole.ticks

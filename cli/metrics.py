@@ -1,0 +1,117 @@
+"""``flylog metrics``: thin wrapper over :func:`flylog.metrics.score.score_run`."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import click
+
+from flylog.cli.common import progress_bar, reports_errors, stdout
+
+_SHOWN = (
+    ("snapshots", "fly snapshots", ""),
+    ("precision", "precision", ""),
+    ("recall", "recall", ""),
+    ("f_score", "F-score", ""),
+    ("median_depth_error", "median relative depth error", ""),
+    ("nearest_error_m", "nearest obstacle: median |detected − visible|", "m"),
+    ("obstacles_detected", "obstacles detected", ""),
+    ("obstacles_visible", "obstacles visible", ""),
+    ("detection_latency_mean_s", "detection latency, mean", "s"),
+    ("detection_latency_max_s", "detection latency, max", "s"),
+    ("goal_reached", "goal reached", ""),
+    ("planner_goal_reached", "planner said goal reached", ""),
+    ("time_to_goal_s", "time to goal", "s"),
+    ("final_goal_distance_m", "final distance to goal", "m"),
+    ("path_length_m", "path length", "m"),
+    ("min_clearance_m", "minimum clearance", "m"),
+    ("collisions", "collisions", ""),
+    ("ate_m", "odometry ATE (aligned)", "m"),
+    ("rpe_m", "odometry RPE, translation", "m"),
+    ("rpe_deg", "odometry RPE, rotation", "deg"),
+    ("generations", "generations", ""),
+    ("evaluations_per_s", "evaluations per second", "1/s"),
+    ("wall_s", "run wall time", "s"),
+    ("metrics_wall_s", "metrics wall time", "s"),
+)
+
+
+def _fmt(value: Any) -> str:
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return "—"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, int):
+        return str(value)
+    return f"{value:.4g}"
+
+
+@click.command()
+@click.argument("run", type=click.Path(dir_okay=False, path_type=Path))
+@click.option(
+    "--log",
+    "log",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="The sensor log the run was made from (ground truth). [default: RUN itself, "
+    "for a closed-loop log]",
+)
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(dir_okay=False, path_type=Path),
+    required=True,
+    help="Per-snapshot table NAME.parquet; NAME.summary.parquet (one row) and "
+    "NAME.obstacles.parquet are written beside it.",
+)
+@click.option(
+    "--config",
+    "config_file",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="TOML file of metrics thresholds (fields of flylog.metrics.config.MetricsConfig).",
+)
+@click.option("--tau", type=click.FloatRange(0.0, 1.0), default=None, help="Relative depth "
+              "tolerance of 'on a surface'. [default: 0.05]")  # fmt: skip
+@click.option("--goal-tolerance", type=click.FloatRange(min=0.0), default=None, metavar="M",
+              help="Distance at which the goal counts as reached. [default: 0.2 m]")  # fmt: skip
+@click.option("--rpe-delta", type=click.FloatRange(min=0.001), default=None, metavar="S",
+              help="Time step of the relative pose error. [default: 1 s]")  # fmt: skip
+@reports_errors
+def metrics(
+    run: Path,
+    log: Path | None,
+    output: Path,
+    config_file: Path | None,
+    tau: float | None,
+    goal_tolerance: float | None,
+    rpe_delta: float | None,
+) -> None:
+    """Score RUN (a `flylog replay` output or a closed-loop log) against the ground truth
+    of its sensor log: fly precision/recall, obstacle detection latency, the robot's path,
+    clearance, collisions and odometric drift. Writes Parquet tables; prints the summary."""
+    from rich.table import Table
+
+    from flylog.config import from_mapping, read_toml, replace_dotted
+    from flylog.metrics.config import MetricsConfig
+    from flylog.metrics.score import score_run, write_metrics
+
+    config = MetricsConfig()
+    if config_file is not None:
+        config = from_mapping(MetricsConfig, read_toml(config_file), source=str(config_file))
+    config = replace_dotted(
+        config, {"tau": tau, "goal_tolerance": goal_tolerance, "rpe_delta": rpe_delta}
+    )
+    with progress_bar(f"metrics {run.name}", unit="s") as update:
+        result = score_run(run, log if log is not None else run, config, on_progress=update)
+    paths = write_metrics(result, output)
+    table = Table(title=f"metrics of {run}", title_justify="left")
+    table.add_column("metric")
+    table.add_column("value", justify="right")
+    table.add_column("unit")
+    for key, label, unit in _SHOWN:
+        table.add_row(label, _fmt(result.summary[key]), unit)
+    stdout.print(table)
+    stdout.print("wrote " + ", ".join(str(p) for p in paths))

@@ -1,0 +1,72 @@
+"""The whole configuration of a replay (and of the closed loop): one TOML file, every default
+written once. Top-level fields, then the ``[engine]``, ``[planner]`` and ``[obstacles]`` tables."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from flylog.config import from_mapping, param, read_toml
+from flylog.fly.config import EngineConfig
+from flylog.planner.config import PlannerConfig
+from flylog.replay.clock import Mode
+
+
+@dataclass(frozen=True)
+class ObstacleFlies:
+    """Which flies count as obstacles (for the planner and for metrics)."""
+
+    quantile: float = param(
+        0.5, help="keep flies above this quantile of the positive fitnesses", min=0.0, max=0.99
+    )
+    ground_margin: float = param(
+        0.05, help="and at least this high above the ground", unit="m", min=0.0
+    )
+
+
+@dataclass(frozen=True)
+class ReplayConfig:
+    seed: int = param(0, help="seed of the engine's random generator", min=0)
+    generations_per_frame: int = param(
+        0,
+        help="0: asynchronous, generations back to back on the newest data; N > 0: exactly N "
+        "generations per stereo pair (the paper's experiments use 1)",
+        min=0,
+        max=10_000,
+    )
+    sync: bool = param(
+        False,
+        help="conventional pipeline (paper Table 1): only complete frames, results published "
+        "when processing ends; runs generations_per_frame (at least 1) per frame",
+    )
+    evals_per_second: float = param(
+        0.5e6,
+        help="virtual compute budget of the robot's computer: each generation costs its fitness "
+        "evaluations / this (0.5 M/s: about 13 generations of 5000 flies per 15 Hz frame)",
+        unit="evaluations/s",
+        min=1.0,
+    )
+    snapshot_rate: float = param(
+        5.0, help="how often flies, potential and path are written", unit="Hz", min=0.01
+    )
+    overlay_flies: int = param(
+        1000, help="best flies drawn on the left image in each snapshot", min=0
+    )
+    engine: EngineConfig = param(EngineConfig(), help="the fly engine")
+    planner: PlannerConfig = param(PlannerConfig(), help="the harmonic planner")
+    obstacles: ObstacleFlies = param(ObstacleFlies(), help="obstacle flies")
+
+    @property
+    def mode(self) -> Mode:
+        if self.sync:
+            return Mode.SYNC
+        return Mode.PER_FRAME if self.generations_per_frame > 0 else Mode.ASYNC
+
+    @property
+    def generations_per_cycle(self) -> int:
+        """Generations per frame in the frame-driven modes (sync runs at least one)."""
+        return max(1, self.generations_per_frame)
+
+
+def load_replay_config(path: Path) -> ReplayConfig:
+    return from_mapping(ReplayConfig, read_toml(path), source=str(path))

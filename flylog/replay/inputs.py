@@ -1,0 +1,128 @@
+"""What replay needs to know about a log before streaming it, from the contract's sensor
+topics only (never ``/truth/``): the stereo rig, the frame period, the start and the goal."""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from flylog.errors import LogError
+from flylog.geometry import Pose2D, StereoRig
+from flylog.io import contract
+from flylog.io.reader import LogReader, require_topics
+
+# Topics replay reads; /truth/ is deliberately absent.
+SENSOR_TOPICS = (contract.LEFT_IMAGE, contract.RIGHT_IMAGE, contract.SONAR, contract.ODOM)
+REQUIRED_TOPICS = (
+    contract.LEFT_IMAGE,
+    contract.RIGHT_IMAGE,
+    contract.LEFT_CALIBRATION,
+    contract.RIGHT_CALIBRATION,
+    contract.ODOM,
+    contract.TF,
+)
+
+
+class NoSonarWarning(UserWarning):
+    """The log has no /sonar topic: the engine runs without sonar fusion."""
+
+
+@dataclass(frozen=True)
+class ReplayInputs:
+    rig: StereoRig
+    frame_period_ns: int
+    start: Pose2D  # first odometric pose
+    goal: tuple[float, float]
+    start_ns: int
+    end_ns: int
+    has_sonar: bool
+
+
+def replay_inputs(reader: LogReader, *, goal: tuple[float, float] | None) -> ReplayInputs:
+    """Read the rig (calibration + static transforms), timing, start and goal of a log."""
+    require_topics(reader, REQUIRED_TOPICS)
+    topics = reader.topics()
+    has_sonar = contract.SONAR in topics
+    if has_sonar:
+        require_topics(reader, [contract.SONAR])
+    else:
+        msg = f"{reader.path} has no {contract.SONAR} topic: replaying without sonar fusion"
+        warnings.warn(msg, NoSonarWarning, stacklevel=2)
+    rig = _rig(reader)
+    first_odom = next(iter(reader.messages([contract.ODOM]))).value
+    if goal is None:
+        meta = reader.metadata().get("flylog.simulation", {})
+        if "goal" not in meta:
+            msg = (
+                f"{reader.path} does not say where the goal is (no 'goal' in its "
+                f"flylog.simulation metadata): give it with --goal X,Y"
+            )
+            raise LogError(msg)
+        goal = tuple(float(v) for v in json.loads(meta["goal"]))  # type: ignore[assignment]
+    assert goal is not None
+    return ReplayInputs(
+        rig=rig,
+        frame_period_ns=round(1e9 / rig.frame_rate),
+        start=first_odom.pose,
+        goal=(float(goal[0]), float(goal[1])),
+        start_ns=reader.start_ns,
+        end_ns=reader.end_ns,
+        has_sonar=has_sonar,
+    )
+
+
+def _rig(reader: LogReader) -> StereoRig:
+    """The rig from the first calibrations and the static base_link → camera transforms."""
+    calib = {}
+    for side, topic in contract.CALIBRATION_TOPICS.items():
+        calib[side] = next(iter(reader.messages([topic]))).value
+    left, right = calib["left"], calib["right"]
+    fx = float(left.K[0, 0])
+    cx, cy = (left.width - 1) / 2.0, (left.height - 1) / 2.0
+    if not (
+        np.isclose(left.K[1, 1], fx)
+        and np.isclose(left.K[0, 2], cx)
+        and np.isclose(left.K[1, 2], cy)
+    ):
+        msg = (
+            f"{reader.path}: {contract.LEFT_CALIBRATION} has K = {left.K.tolist()}; flylog needs "
+            f"square pixels and the principal point at the image centre ({cx}, {cy})"
+        )
+        raise LogError(msg)
+    baseline = -float(right.P[0, 3]) / fx
+    mounts: dict[str, tuple[float, float, float]] = {}
+    for m in reader.messages([contract.TF]):
+        for t in m.value:
+            if t.parent == contract.BASE_FRAME and t.child in contract.CAMERA_FRAMES.values():
+                mounts[t.child] = t.translation
+        if len(mounts) == 2:
+            break
+    if len(mounts) < 2:
+        msg = (
+            f"{reader.path}: {contract.TF} never gives base_link → camera_left and camera_right; "
+            f"replay needs them to place the cameras on the robot"
+        )
+        raise LogError(msg)
+    lx, ly, lz = mounts[contract.CAMERA_FRAMES["left"]]
+    n = reader.topics()[contract.LEFT_IMAGE].count
+    span = reader.end_ns - reader.start_ns
+    frame_rate = 1e9 * (n - 1) / span if n > 1 and span > 0 else 15.0
+    if baseline <= 0 or not math.isclose(ly, baseline / 2.0, rel_tol=1e-3, abs_tol=1e-6):
+        msg = (
+            f"{reader.path}: the right camera's P gives a baseline of {baseline} m but the left "
+            f"camera sits at y = {ly} m; flylog needs a rectified rig symmetric about base_link"
+        )
+        raise LogError(msg)
+    return StereoRig(
+        width=left.width,
+        height=left.height,
+        focal_px=fx,
+        baseline=baseline,
+        mount_height=lz,
+        mount_x=lx,
+        frame_rate=frame_rate,
+    )

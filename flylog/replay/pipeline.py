@@ -1,0 +1,223 @@
+"""The engine and the planner wired together, as the virtual clock drives them.
+
+Used by replay (sensor records from a log) and by the simulator's closed loop (records as
+they are produced): the paper's shared memory (Fig. 6) is the published population, which
+the planner reads at its own rate, and the planner's newest command.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from flylog.fly.engine import FlyEngine, GenerationStats
+from flylog.fly.obstacles import obstacle_points
+from flylog.fly.population import Population
+from flylog.geometry import Pose2D, StereoRig, relative, transform_points_2d
+from flylog.io import contract, encode
+from flylog.planner import Command, HarmonicPlanner, Status
+from flylog.replay.config import ReplayConfig
+from flylog.sensors import OdomReading, SonarReading, StereoPair
+
+Write = Callable[[str, int, Any], None]
+
+PLANNER_TICK = "planner"
+SNAPSHOT_TICK = "snapshot"
+
+
+class FlyPipeline:
+    """Implements :class:`flylog.replay.clock.Pipeline` over a FlyEngine and a HarmonicPlanner.
+
+    ``write(topic, t_ns, message)`` receives every output message; ``on_row`` one row of the
+    per-step table per planner tick. ``write_tf`` is off in the closed loop, where the
+    simulator already writes odom → base_link.
+    """
+
+    def __init__(
+        self,
+        config: ReplayConfig,
+        rig: StereoRig,
+        start: Pose2D,
+        goal: tuple[float, float],
+        write: Write,
+        *,
+        write_tf: bool = True,
+        on_row: Callable[[dict[str, Any]], None] | None = None,
+    ) -> None:
+        self.config = config
+        self.rig = rig
+        self.engine = FlyEngine(config.engine, rig, np.random.default_rng(config.seed))
+        # centred between start and goal, so both fit whenever they are extent apart at most
+        centre = ((start.x + goal[0]) / 2.0, (start.y + goal[1]) / 2.0)
+        self.planner = HarmonicPlanner.centred_on(config.planner, centre, goal)
+        self._write = write
+        self._write_tf = write_tf
+        self._on_row = on_row
+        self._odom = OdomReading(0, start)  # newest odometry delivered
+        self._engine_pose: Pose2D | None = None  # odometry the population was last moved to
+        self._last_stats: GenerationStats | None = None
+        # what ticks see: the newest population published, and where the robot was then
+        self._published: Population | None = None
+        self._published_pose = start
+        self._published_image_ns = -1
+        self._published_generation = 0
+        self._evaluations = 0
+        self.command = Command(0.0, 0.0, Status.DRIVING)
+        self.snapshots = 0
+
+    # --- the clock's Pipeline protocol -----------------------------------------------------
+
+    def deliver(self, record: object) -> None:
+        if isinstance(record, StereoPair):
+            self.engine.set_images(record)
+        elif isinstance(record, SonarReading):
+            self.engine.set_sonar(record)
+        elif isinstance(record, OdomReading):
+            if self._engine_pose is not None:
+                self.engine.apply_motion(relative(self._engine_pose, record.pose))
+            self._engine_pose = record.pose
+            self._odom = record
+        else:
+            msg = f"the pipeline cannot use a {type(record).__name__}"
+            raise TypeError(msg)
+
+    def generation(self) -> int:
+        self._last_stats = self.engine.step()
+        self._evaluations += self._last_stats.evaluations
+        return self._last_stats.evaluations
+
+    def publish(self, t_ns: int) -> None:
+        assert self._last_stats is not None
+        self._published = self.engine.population
+        self._published_pose = self._odom.pose
+        self._published_image_ns = self._last_stats.image_stamp_ns
+        self._published_generation = self._last_stats.generation
+
+    def tick(self, name: str, t_ns: int) -> None:
+        if name == PLANNER_TICK:
+            self._planner_tick(t_ns)
+        elif name == SNAPSHOT_TICK:
+            self._snapshot(t_ns)
+        else:
+            msg = f"unknown tick {name!r}"
+            raise ValueError(msg)
+
+    # --- planner ---------------------------------------------------------------------------
+
+    def obstacle_flies(self) -> np.ndarray:
+        """(M, 3) obstacle flies of the published population, in base_link at its pose."""
+        if self._published is None:
+            return np.empty((0, 3))
+        rule = self.config.obstacles
+        return obstacle_points(
+            self._published, quantile=rule.quantile, ground_margin=rule.ground_margin
+        )
+
+    def _planner_tick(self, t_ns: int) -> None:
+        obstacles = self.obstacle_flies()
+        if self._published is not None:
+            in_odom = transform_points_2d(self._published_pose, obstacles[:, :2])
+            self.planner.update_obstacles(in_odom, self._published_pose, self.rig.half_fov)
+        change = self.planner.relax()
+        pose = self._odom.pose
+        self.command = self.planner.command(pose, t_ns / 1e9)
+        status = contract.CommandStatus(self.command.status.value)
+        self._write(
+            contract.PLANNER_COMMAND,
+            t_ns,
+            encode.command(self.command.linear, self.command.angular, status, t_ns),
+        )
+        if self._on_row is None:
+            return
+        pop = self._published
+        valid = pop.fitness[pop.fitness > 0] if pop is not None else np.empty(0)
+        self._on_row(
+            {
+                "t": t_ns / 1e9,
+                "generation": self._published_generation,
+                "evaluations": self._evaluations,
+                "valid_flies": len(valid),
+                "obstacle_flies": len(obstacles),
+                "best_fitness": float(valid.max()) if len(valid) else math.nan,
+                "median_fitness": float(np.median(valid)) if len(valid) else math.nan,
+                "image_latency": (t_ns - self._published_image_ns) / 1e9
+                if self._published_image_ns >= 0
+                else math.nan,
+                "odom_latency": (t_ns - self._odom.stamp_ns) / 1e9,
+                "x": pose.x,
+                "y": pose.y,
+                "theta": pose.theta,
+                "linear": self.command.linear,
+                "angular": self.command.angular,
+                "status": status.value,
+                "potential_change": change,
+            }
+        )
+
+    # --- snapshots -------------------------------------------------------------------------
+
+    def _snapshot(self, t_ns: int) -> None:
+        self.snapshots += 1
+        pop = self._published
+        if pop is not None:
+            self._write(
+                contract.FLIES,
+                t_ns,
+                encode.point_cloud(pop.xyz, pop.fitness, t_ns, contract.BASE_FRAME),
+            )
+            uv, colours = self._overlay(pop)
+            self._write(contract.FLIES_OVERLAY, t_ns, encode.image_annotations(uv, colours, t_ns))
+            if self._write_tf:
+                self._write(
+                    contract.TF,
+                    t_ns,
+                    encode.frame_transforms([encode.odom_transform(self._published_pose)], t_ns),
+                )
+        ox, oy = self.planner.origin
+        self._write(
+            contract.PLANNER_POTENTIAL,
+            t_ns,
+            encode.grid(
+                self.planner.potential,
+                Pose2D(ox, oy, 0.0),
+                self.planner.cell_size,
+                t_ns,
+                contract.ODOM_FRAME,
+            ),
+        )
+        self._write(
+            contract.PLANNER_PATH,
+            t_ns,
+            encode.poses_in_frame(
+                path_poses(self.planner.path(self._odom.pose)), t_ns, contract.ODOM_FRAME
+            ),
+        )
+
+    def _overlay(self, pop: Population) -> tuple[np.ndarray, np.ndarray]:
+        """The best ``overlay_flies`` valid flies projected on the left image, coloured from
+        red (lowest shown fitness) to green (best)."""
+        valid = np.flatnonzero(pop.fitness > 0)
+        k = min(self.config.overlay_flies, len(valid))
+        if k == 0:
+            return np.empty((0, 2)), np.empty((0, 4))
+        best = valid[np.argsort(pop.fitness[valid], kind="stable")[-k:]]
+        u_left, _, v, _ = self.rig.project(pop.xyz[best])
+        f = pop.fitness[best]
+        span = f.max() - f.min()
+        a = (f - f.min()) / span if span > 0 else np.ones(k)
+        colours = np.stack([1.0 - a, a, np.zeros(k), np.ones(k)], axis=1)
+        return np.stack([u_left, v], axis=1), colours
+
+
+def path_poses(points: np.ndarray) -> np.ndarray:
+    """(K, 2) path points → (K, 3) poses heading along the path (the last keeps the previous
+    heading)."""
+    if len(points) == 0:
+        return np.empty((0, 3))
+    d = np.diff(points, axis=0)
+    heading = np.arctan2(d[:, 1], d[:, 0]) if len(d) else np.zeros(0)
+    heading = np.append(heading, heading[-1] if len(heading) else 0.0)
+    return np.column_stack([points, heading])

@@ -1,0 +1,197 @@
+"""`flylog replay` on the fixture logs: outputs, determinism, truth-blindness, errors."""
+
+import json
+import re
+from pathlib import Path
+
+import pyarrow.parquet as pq
+import pytest
+from click.testing import CliRunner
+from mcap.writer import Writer
+
+from flylog.cli.main import cli
+from flylog.config import from_mapping
+from flylog.io import contract
+from flylog.io.reader import open_log
+from flylog.replay.config import ReplayConfig
+from flylog.replay.run import REPLAY_METADATA, replay
+
+LOGS = Path(__file__).resolve().parents[2] / "fixtures" / "logs"
+CORRIDOR = LOGS / "corridor.mcap"
+SMALL = ReplayConfig(
+    engine=from_mapping(type(ReplayConfig().engine), {"flies": 400}, source="test"),
+    generations_per_frame=2,
+)
+
+
+def table_rows(path):
+    """Rows with NaN made comparable (NaN != NaN would hide real equality)."""
+    rows = pq.read_table(path).to_pylist()
+    return [{k: ("nan" if v != v else v) for k, v in row.items()} for row in rows]
+
+
+def content(path):
+    return [
+        (r.channel.topic, r.message.log_time, bytes(r.message.data))
+        for r in open_log(path).raw_messages()
+    ]
+
+
+@pytest.fixture(scope="module")
+def corridor_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("replay") / "run.mcap"
+    return replay(CORRIDOR, out, SMALL)
+
+
+def test_writes_every_output_topic_and_one_row_per_planner_tick(corridor_run):
+    reader = open_log(corridor_run.output)
+    topics = reader.topics()
+    for topic in (contract.FLIES, contract.FLIES_OVERLAY, contract.PLANNER_POTENTIAL,
+                  contract.PLANNER_PATH, contract.PLANNER_COMMAND, contract.TF):  # fmt: skip
+        assert topics[topic].schema == contract.TOPIC_SCHEMAS[topic]
+    # 2 s of log: planner at 10 Hz and snapshots at 5 Hz, both ends included
+    assert topics[contract.PLANNER_COMMAND].count == 21
+    assert topics[contract.PLANNER_POTENTIAL].count == 11 == corridor_run.snapshots
+    table = pq.read_table(corridor_run.table)
+    assert table.num_rows == 21
+    assert table.column("t").to_pylist()[:3] == pytest.approx([0.0, 0.1, 0.2])
+    cloud = next(iter(reader.messages([contract.FLIES]))).value
+    assert cloud.xyz.shape == (400, 3)
+
+
+def test_per_frame_mode_runs_exactly_n_generations_per_frame(corridor_run):
+    assert corridor_run.frames == 31
+    assert corridor_run.generations == 62
+
+
+def test_effective_config_is_stored_and_reproduces_the_run(corridor_run, tmp_path):
+    meta = open_log(corridor_run.output).metadata()[REPLAY_METADATA]
+    stored = from_mapping(ReplayConfig, json.loads(meta["config"]), source="metadata")
+    assert stored == SMALL
+    again = replay(CORRIDOR, tmp_path / "again.mcap", stored)
+    assert content(again.output) == content(corridor_run.output)
+    assert table_rows(again.table) == table_rows(corridor_run.table)
+
+
+def test_never_reads_truth(corridor_run, tmp_path):
+    blind = tmp_path / "no-truth.mcap"
+    copy_log(CORRIDOR, blind, lambda topic: not topic.startswith(contract.TRUTH_PREFIX))
+    assert not any(t.startswith("/truth/") for t in open_log(blind).topics())
+    run = replay(blind, tmp_path / "run.mcap", SMALL)
+    assert content(run.output) == content(corridor_run.output)
+
+
+def copy_log(source, target, keep, *, chunk_size=4 * 1024 * 1024):
+    """Copy a log's metadata and the messages of the topics ``keep`` accepts, byte for byte."""
+    reader = open_log(source)
+    schemas, channels = {}, {}
+    with target.open("wb") as fh:
+        writer = Writer(fh, chunk_size=chunk_size, use_summary_offsets=False)
+        writer.start()
+        for name, values in reader.metadata().items():
+            writer.add_metadata(name, values)
+        for raw in reader.raw_messages():
+            topic = raw.channel.topic
+            if not keep(topic):
+                continue
+            if topic not in channels:
+                s = raw.schema
+                if s.name not in schemas:
+                    schemas[s.name] = writer.register_schema(s.name, s.encoding, s.data)
+                channels[topic] = writer.register_channel(
+                    topic, raw.channel.message_encoding, schemas[s.name]
+                )
+            writer.add_message(channels[topic], raw.message.log_time, raw.message.data,
+                               raw.message.publish_time)  # fmt: skip
+        writer.finish()
+
+
+def test_sync_sees_images_at_least_one_frame_late_async_sooner(tmp_path):
+    sync = replay(CORRIDOR, tmp_path / "s.mcap", ReplayConfig(
+        engine=SMALL.engine, sync=True, generations_per_frame=1))  # fmt: skip
+    asyn = replay(CORRIDOR, tmp_path / "a.mcap", ReplayConfig(engine=SMALL.engine))
+    lat_sync = pq.read_table(sync.table).column("image_latency").to_pylist()[5:]
+    lat_async = pq.read_table(asyn.table).column("image_latency").to_pylist()[5:]
+    period = 1 / 15
+    assert min(lat_sync) >= period - 1e-9
+    assert sorted(lat_async)[len(lat_async) // 2] < sorted(lat_sync)[len(lat_sync) // 2]
+
+
+def test_interrupted_replay_leaves_neither_output(tmp_path):
+    out = tmp_path / "run.mcap"
+
+    def stop(done, total):
+        if done > 0.5:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        replay(CORRIDOR, out, SMALL, on_progress=stop)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_cli_config_file_and_overrides(tmp_path):
+    config = tmp_path / "replay.toml"
+    config.write_text("seed = 7\ngenerations_per_frame = 3\n[engine]\nflies = 300\n")
+    out = tmp_path / "run.mcap"
+    result = CliRunner().invoke(
+        cli, ["replay", str(CORRIDOR), "-o", str(out), "--config", str(config),
+              "--generations-per-frame", "1"])  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert "31 generations" in result.output
+    stored = json.loads(open_log(out).metadata()[REPLAY_METADATA]["config"])
+    assert (stored["seed"], stored["generations_per_frame"], stored["engine"]["flies"]) == (
+        7,
+        1,
+        300,
+    )
+
+
+@pytest.mark.parametrize(
+    ("make", "needle"),
+    [
+        (lambda p: p.write_text("not a log"), "is not an MCAP file"),
+        (lambda p: None, "no such file"),
+    ],
+)
+def test_cli_bad_log_exit_2_and_no_output(tmp_path, make, needle):
+    log = tmp_path / "bad.mcap"
+    make(log)
+    out = tmp_path / "run.mcap"
+    result = CliRunner().invoke(cli, ["replay", str(log), "-o", str(out)])
+    assert result.exit_code == 2
+    assert needle in result.output and str(log) in result.output
+    assert not out.exists() and not out.with_suffix(".parquet").exists()
+
+
+def test_cli_log_without_images_names_missing_and_present_topics(tmp_path):
+    log = tmp_path / "odom-only.mcap"
+    copy_log(CORRIDOR, log, lambda topic: topic == contract.ODOM)
+    result = CliRunner().invoke(cli, ["replay", str(log), "-o", str(tmp_path / "r.mcap")])
+    assert result.exit_code == 2
+    assert "lacks topic(s) /camera/left/image" in result.output
+    assert "the topics present are: /odom (foxglove.PoseInFrame)" in result.output
+
+
+def test_cli_truncated_log_is_replayed_with_a_warning(tmp_path):
+    chunked = tmp_path / "chunked.mcap"  # small chunks, so a cut keeps most of the log
+    copy_log(CORRIDOR, chunked, lambda topic: True, chunk_size=64 * 1024)
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(chunked.read_bytes()[: chunked.stat().st_size * 2 // 3])
+    out = tmp_path / "run.mcap"
+    result = CliRunner().invoke(
+        cli, ["replay", str(cut), "-o", str(out), "--flies", "300", "--generations-per-frame", "1"]
+    )
+    assert result.exit_code == 0, result.output
+    assert "truncated or unfinished" in result.output and "recovered" in result.output
+    assert out.exists()
+
+
+def test_help_defaults_match_the_configuration():
+    text = CliRunner().invoke(cli, ["replay", "--help"]).output
+    text = re.sub(r"\s+", " ", text)
+    cfg = ReplayConfig()
+    assert f"[default: {cfg.seed}]" in text
+    assert f"[default: {cfg.engine.flies}]" in text
+    assert f"[default: {cfg.generations_per_frame}]" in text
+    assert f"[default: {cfg.evals_per_second:.0f}]" in text
+    assert f"[default: {cfg.snapshot_rate:g} Hz]" in text
