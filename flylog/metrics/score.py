@@ -1,0 +1,311 @@
+"""``flylog metrics``: score a run (fly snapshots, planner) against its sensor log's truth.
+
+The run file is a ``flylog replay`` output or a closed-loop ``flylog simulate`` log (which is
+then also the sensor log). Ground truth is rendered only at the snapshot times, from the
+true pose interpolated there, by the simulator's renderer. Definitions: see
+``flylog.metrics.flies`` (flies), ``flylog.metrics.obstacles`` (latency) and
+``flylog.metrics.trajectory`` (ATE, RPE); the robot's metrics use the true trajectory
+(``/truth/pose``): path length, clearance = distance to the nearest footprint − robot
+radius, collisions = entries into negative clearance, goal reached = the true position
+within ``goal_tolerance`` of the goal at some time.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from flylog.config import to_mapping
+from flylog.errors import LogError
+from flylog.geometry import Pose2D
+from flylog.io import contract, open_log
+from flylog.io.reader import LogReader
+from flylog.metrics import tables
+from flylog.metrics.config import MetricsConfig
+from flylog.metrics.flies import f_score, obstacle_fly_mask, ratio, score_flies
+from flylog.metrics.obstacles import detect_obstacles
+from flylog.metrics.trajectory import (
+    associate,
+    ate_rmse,
+    count_entries,
+    first_arrival,
+    interpolate_poses,
+    path_length,
+    rpe_rmse,
+)
+from flylog.metrics.truth import LogTruth, read_truth
+from flylog.scene.load import distance_to_obstacles
+
+REPLAY_METADATA = "flylog.replay"
+# Odometry and truth are written at the same instants by the simulator; allow one 50 Hz
+# period of mismatch for logs from elsewhere (evo's --t_max_diff default is 10 ms).
+_MAX_MATCH_NS = 20_000_000
+
+
+@dataclass(frozen=True)
+class RunFacts:
+    """What a run file says about itself (its ``flylog.replay`` metadata)."""
+
+    quantile: float
+    ground_margin: float
+    generations: int | None = None
+    evaluations: int | None = None
+    wall_seconds: float | None = None
+    log_duration: float | None = None
+
+
+@dataclass(frozen=True)
+class MetricsResult:
+    """Rows of the three tables (``flylog.metrics.tables`` documents the columns)."""
+
+    snapshots: list[dict[str, Any]]
+    obstacles: list[dict[str, Any]]
+    summary: dict[str, Any]
+    config: MetricsConfig
+
+
+def _find_rule(config: Any) -> dict[str, Any] | None:
+    """The ``{"quantile", "ground_margin"}`` table anywhere in a replay configuration."""
+    if isinstance(config, dict):
+        rule = config.get("obstacles")
+        if isinstance(rule, dict) and "quantile" in rule:
+            return rule
+        for value in config.values():
+            found = _find_rule(value)
+            if found is not None:
+                return found
+    return None
+
+
+def _number(meta: dict[str, str], key: str, kind: type) -> Any:
+    if key not in meta:
+        return None
+    try:
+        return kind(float(meta[key])) if kind is int else float(meta[key])
+    except ValueError:
+        return None
+
+
+def run_facts(reader: LogReader, config: MetricsConfig) -> RunFacts:
+    """The obstacle rule and run statistics of a run file; the config's rule if absent."""
+    meta = reader.metadata().get(REPLAY_METADATA, {})
+    rule: dict[str, Any] = {}
+    if "config" in meta:
+        try:
+            rule = _find_rule(json.loads(meta["config"])) or {}
+        except json.JSONDecodeError as exc:
+            msg = f"{reader.path}: metadata {REPLAY_METADATA}.config is not JSON ({exc})"
+            raise LogError(msg) from None
+    return RunFacts(
+        quantile=float(rule.get("quantile", config.fly_quantile)),
+        ground_margin=float(rule.get("ground_margin", config.fly_ground_margin)),
+        generations=_number(meta, "generations", int),
+        evaluations=_number(meta, "evaluations", int),
+        wall_seconds=_number(meta, "wall_seconds", float),
+        log_duration=_number(meta, "log_duration", float),
+    )
+
+
+def _snapshot_row(
+    t_ns: int, t0_ns: int, pose: np.ndarray, score: Any, nearest_true: float
+) -> dict[str, Any]:
+    return {
+        "stamp_ns": int(t_ns),
+        "t_s": (t_ns - t0_ns) / 1e9,
+        "true_x": float(pose[0]),
+        "true_y": float(pose[1]),
+        "true_theta": float(pose[2]),
+        "flies": score.flies,
+        "obstacle_flies": score.obstacle_flies,
+        "in_view": score.in_view,
+        "on_surface": score.on_surface,
+        "on_obstacle": score.on_obstacle,
+        "visible_cells": score.visible_cells,
+        "covered_cells": score.covered_cells,
+        "precision": score.precision,
+        "recall": score.recall,
+        "f_score": score.f_score,
+        "median_depth_error": (
+            float(np.median(score.depth_errors)) if len(score.depth_errors) else math.nan
+        ),
+        "nearest_true_m": nearest_true,
+        "nearest_visible_m": score.nearest_visible,
+        "nearest_detected_m": score.nearest_detected,
+    }
+
+
+def _robot_summary(truth: LogTruth, config: MetricsConfig) -> dict[str, Any]:
+    true = truth.true
+    if len(true) == 0:
+        msg = f"{truth.path}: /truth/pose has no messages"
+        raise LogError(msg)
+    t0 = true.t_ns[0]
+    arrival = first_arrival(true, truth.goal, config.goal_tolerance)
+    clearance = distance_to_obstacles(truth.scene, true.xy) - truth.scene.spec.robot.radius
+    i_ref, i_est = associate(true.t_ns, truth.odom.t_ns, _MAX_MATCH_NS)
+    ref, est = true.xyt[i_ref], truth.odom.xyt[i_est]
+    rpe_m, rpe_rad = rpe_rmse(true.t_ns[i_ref], ref, est, delta_s=config.rpe_delta)
+    gx, gy = truth.goal
+    return {
+        "duration_s": float(true.t_ns[-1] - t0) / 1e9,
+        "goal_reached": arrival is not None,
+        "time_to_goal_s": math.nan if arrival is None else (true.t_ns[arrival] - t0) / 1e9,
+        "final_goal_distance_m": math.hypot(true.xyt[-1, 0] - gx, true.xyt[-1, 1] - gy),
+        "path_length_m": path_length(true.xy),
+        "min_clearance_m": float(clearance.min()),
+        "collisions": count_entries(clearance < 0),
+        "ate_m": ate_rmse(ref[:, :2], est[:, :2]),
+        "rpe_m": rpe_m,
+        "rpe_deg": math.degrees(rpe_rad),
+    }
+
+
+def score_run(
+    run: str | Path,
+    log: str | Path,
+    config: MetricsConfig = MetricsConfig(),  # noqa: B008 (frozen, immutable)
+    *,
+    on_progress: Callable[[float, float], None] | None = None,
+) -> MetricsResult:
+    """Score ``run`` against the ground truth of the sensor log ``log`` (may be the same
+    file). ``on_progress(done, total)`` reports progress in seconds of log time."""
+    from flylog.sim.render import Renderer
+
+    wall0 = time.perf_counter()
+    truth = read_truth(log)
+    reader = open_log(run)
+    facts = run_facts(reader, config)
+    present = reader.topics()
+    true = truth.true
+    robot = _robot_summary(truth, config)
+    t0, t_end = int(true.t_ns[0]), int(true.t_ns[-1])
+    gap = round(config.max_time_gap * 1e9)
+    n_obstacles = len(truth.scene.obstacles)
+    renderer = Renderer(truth.scene, truth.rig)
+
+    if contract.FLIES not in present:
+        warnings.warn(
+            f"{reader.path} has no {contract.FLIES} topic: only the robot is scored",
+            UserWarning,
+            stacklevel=2,
+        )
+    topics = [t for t in (contract.FLIES, contract.PLANNER_COMMAND) if t in present]
+    rows: list[dict[str, Any]] = []
+    visible_px: list[np.ndarray] = []
+    flies_on: list[np.ndarray] = []
+    errors: list[np.ndarray] = []
+    statuses: set[str] = set()
+    for m in reader.messages(topics) if topics else ():
+        if m.topic == contract.PLANNER_COMMAND:
+            statuses.add(m.value["status"])
+            continue
+        t = m.log_time_ns
+        if not t0 - gap <= t <= t_end + gap:
+            msg = (
+                f"{reader.path}: the snapshot at {t / 1e9:.3f} s lies outside the true "
+                f"trajectory of {truth.path} ({t0 / 1e9:.3f}–{t_end / 1e9:.3f} s): "
+                "is it the run of this log?"
+            )
+            raise LogError(msg)
+        cloud = m.value
+        pose = interpolate_poses(true, np.array([t]))[0]
+        depth, ids = renderer.render_depth(Pose2D(*pose))
+        keep = obstacle_fly_mask(
+            cloud.xyz, cloud.fitness, quantile=facts.quantile, ground_margin=facts.ground_margin
+        )
+        score = score_flies(
+            cloud.xyz[keep], depth, ids, truth.rig, n_obstacles, config, flies=len(cloud.xyz)
+        )
+        nearest_true = float(distance_to_obstacles(truth.scene, pose[None, :2])[0])
+        rows.append(_snapshot_row(t, t0, pose, score, nearest_true))
+        visible_px.append(score.visible_pixels)
+        flies_on.append(score.flies_on)
+        errors.append(score.depth_errors)
+        if on_progress is not None:
+            on_progress((t - t0) / 1e9, (t_end - t0) / 1e9)
+
+    t_s = np.array([r["t_s"] for r in rows])
+    det = detect_obstacles(
+        t_s,
+        np.array(visible_px).reshape(len(rows), n_obstacles),
+        np.array(flies_on).reshape(len(rows), n_obstacles),
+        min_visible_pixels=config.min_visible_pixels,
+        min_detecting_flies=config.min_detecting_flies,
+    )
+    obstacle_rows = [
+        {
+            "obstacle": k,
+            "kind": ob.kind.value,
+            "first_visible_s": float(det.first_visible[k]),
+            "first_detected_s": float(det.first_detected[k]),
+            "latency_s": float(det.latency[k]),
+            "max_visible_pixels": int(det.max_visible_pixels[k]),
+            "max_flies_on": int(det.max_flies_on[k]),
+        }
+        for k, ob in enumerate(truth.scene.obstacles)
+    ]
+
+    def total(key: str) -> int:
+        return sum(r[key] for r in rows)
+
+    precision = ratio(total("on_surface"), total("in_view"))
+    recall = ratio(total("covered_cells"), total("visible_cells"))
+    all_errors = np.concatenate(errors) if errors else np.empty(0)
+    near = np.array([r["nearest_detected_m"] - r["nearest_visible_m"] for r in rows])
+    near = near[np.isfinite(near)]
+    latency = det.latency[np.isfinite(det.latency)]
+    planner = None
+    if contract.PLANNER_COMMAND in present:
+        planner = contract.CommandStatus.GOAL_REACHED.value in statuses
+    evals_per_s = (
+        facts.evaluations / facts.wall_seconds
+        if facts.evaluations is not None and facts.wall_seconds
+        else math.nan
+    )
+    summary = {
+        "run": str(run),
+        "log": str(log),
+        "snapshots": len(rows),
+        "precision": precision,
+        "recall": recall,
+        "f_score": f_score(precision, recall),
+        "median_depth_error": float(np.median(all_errors)) if len(all_errors) else math.nan,
+        "nearest_error_m": float(np.median(np.abs(near))) if len(near) else math.nan,
+        "obstacles": n_obstacles,
+        "obstacles_visible": int(np.isfinite(det.first_visible).sum()),
+        "obstacles_detected": int(np.isfinite(det.first_detected).sum()),
+        "detection_latency_mean_s": float(latency.mean()) if len(latency) else math.nan,
+        "detection_latency_max_s": float(latency.max()) if len(latency) else math.nan,
+        "planner_goal_reached": planner,
+        **robot,
+        "generations": facts.generations,
+        "evaluations": facts.evaluations,
+        "evaluations_per_s": evals_per_s,
+        "wall_s": math.nan if facts.wall_seconds is None else facts.wall_seconds,
+        "log_duration_s": math.nan if facts.log_duration is None else facts.log_duration,
+        "metrics_wall_s": time.perf_counter() - wall0,
+    }
+    return MetricsResult(rows, obstacle_rows, summary, config)
+
+
+def write_metrics(result: MetricsResult, output: str | Path) -> tuple[Path, Path, Path]:
+    """Write the snapshot table to ``output`` and the summary and obstacle tables beside it
+    (``NAME.summary.parquet``, ``NAME.obstacles.parquet``); returns the three paths."""
+    output = Path(output)
+    if output.suffix != ".parquet":
+        msg = f"{output}: the metrics output must end in .parquet"
+        raise LogError(msg)
+    meta = {tables.METADATA_KEY: json.dumps(to_mapping(result.config))}
+    paths = (output, tables.summary_path(output), tables.obstacles_path(output))
+    tables.write_table(paths[0], tables.SNAPSHOT_COLUMNS, result.snapshots, meta)
+    tables.write_table(paths[1], tables.SUMMARY_COLUMNS, [result.summary], meta)
+    tables.write_table(paths[2], tables.OBSTACLE_COLUMNS, result.obstacles, meta)
+    return paths

@@ -1,0 +1,117 @@
+"""What a sensor log says is true: the scene, the camera rig, the true and odometric
+trajectories (``/truth/pose``, ``/odom``). The true views themselves come from the
+simulator's own renderer (``flylog.sim.render.Renderer.render_depth``), never from a
+second geometry code."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from flylog.config import from_mapping
+from flylog.errors import ConfigError, LogError
+from flylog.geometry import StereoRig
+from flylog.io import contract, open_log, require_topics
+from flylog.io.reader import LogReader
+from flylog.metrics.trajectory import Trajectory, trajectory
+from flylog.scene.load import Scene, parse_scene
+
+SCENE_ATTACHMENT = "scene.toml"
+SIMULATION_METADATA = "flylog.simulation"
+
+
+@dataclass(frozen=True)
+class LogTruth:
+    """Ground truth of a sensor log."""
+
+    path: Path
+    scene: Scene
+    rig: StereoRig
+    true: Trajectory
+    odom: Trajectory
+
+    @property
+    def goal(self) -> tuple[float, float]:
+        return self.scene.goal
+
+
+def read_scene(reader: LogReader) -> Scene:
+    """The scene attached to a log (the ``scene.toml`` attachment)."""
+    for att in reader.attachments():
+        if att.name == SCENE_ATTACHMENT:
+            return parse_scene(att.data.decode("utf-8"), f"{reader.path}:{SCENE_ATTACHMENT}")
+    msg = f"{reader.path} has no '{SCENE_ATTACHMENT}' attachment: is it a flylog sensor log?"
+    raise LogError(msg)
+
+
+def read_rig(reader: LogReader, scene: Scene) -> StereoRig:
+    """The rig the log was recorded with: metadata ``flylog.simulation`` ``camera`` (it
+    holds ``--resolution``), else the scene's camera with the left calibration's size and
+    focal length, else the scene's camera."""
+    meta = reader.metadata().get(SIMULATION_METADATA, {})
+    if "camera" in meta:
+        source = f"{reader.path}: metadata {SIMULATION_METADATA}.camera"
+        try:
+            data: Any = json.loads(meta["camera"])
+        except json.JSONDecodeError as exc:
+            msg = f"{source}: not valid JSON ({exc})"
+            raise ConfigError(msg) from None
+        return from_mapping(StereoRig, data, source=source)
+    rig = scene.spec.camera
+    if contract.LEFT_CALIBRATION in reader.topics():
+        first = next(iter(reader.messages([contract.LEFT_CALIBRATION]))).value
+        return StereoRig(
+            width=first.width,
+            height=first.height,
+            focal_px=float(first.K[0, 0]),
+            baseline=rig.baseline,
+            mount_height=rig.mount_height,
+            mount_x=rig.mount_x,
+            frame_rate=rig.frame_rate,
+        )
+    return rig
+
+
+def read_poses(reader: LogReader, topics: list[str]) -> dict[str, Trajectory]:
+    """PoseInFrame topics (``/truth/pose``, ``/odom``) as Trajectories of log times, read
+    in one pass over the log."""
+    found: dict[str, tuple[list[int], list[tuple[float, float, float]]]] = {
+        t: ([], []) for t in topics
+    }
+    for m in reader.messages(topics):
+        p = m.value.pose
+        times, poses = found[m.topic]
+        times.append(m.log_time_ns)
+        poses.append((p.x, p.y, p.theta))
+    return {t: trajectory(*found[t]) for t in topics}
+
+
+def read_odom_tf(reader: LogReader) -> Trajectory:
+    """The odom → base_link transforms of ``/tf`` as a Trajectory (what a run file holds)."""
+    times, poses = [], []
+    for m in reader.messages([contract.TF]):
+        for tf in m.value:
+            if tf.parent == contract.ODOM_FRAME and tf.child == contract.BASE_FRAME:
+                qx, qy, qz, qw = tf.rotation
+                yaw = math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+                times.append(m.log_time_ns)
+                poses.append((tf.translation[0], tf.translation[1], yaw))
+    return trajectory(times, poses)
+
+
+def read_truth(path: str | Path) -> LogTruth:
+    """Scene, rig and trajectories of a sensor log (LogError naming what is missing)."""
+    reader = open_log(path)
+    require_topics(reader, [contract.TRUTH_POSE, contract.ODOM])
+    scene = read_scene(reader)
+    poses = read_poses(reader, [contract.TRUTH_POSE, contract.ODOM])
+    return LogTruth(
+        path=Path(path),
+        scene=scene,
+        rig=read_rig(reader, scene),
+        true=poses[contract.TRUTH_POSE],
+        odom=poses[contract.ODOM],
+    )
