@@ -14,16 +14,31 @@ import numpy as np
 
 from flylog.errors import FlylogError
 from flylog.fly.config import Backend, EngineConfig
-from flylog.fly.fitness import INVALID_FITNESS, as_planes, fitness_numba, fitness_numpy
+from flylog.fly.fitness import (
+    INVALID_FITNESS,
+    as_planes,
+    fitness_numba,
+    fitness_numpy,
+    left_projections_numba,
+    rig_constants,
+)
 from flylog.fly.fusion import moved_by_odometry, sonar_fused, sonar_immigrants
 from flylog.fly.operators import (
     neighbour_counts_numba,
     neighbour_counts_numpy,
     offspring,
     shared_fitness,
+    shared_fitness_numba,
     survivor_indices,
+    survivor_indices_numba,
 )
-from flylog.fly.population import Population, random_flies, sharing_radius
+from flylog.fly.population import (
+    Population,
+    fitness_summary_numba,
+    fitness_summary_numpy,
+    random_flies,
+    sharing_radius,
+)
 from flylog.geometry import Pose2D, StereoRig
 from flylog.sensors import SonarReading, StereoPair
 
@@ -57,6 +72,10 @@ class FlyEngine:
         self._margin = config.window // 2
         self._radius = sharing_radius(rig.n_pixels, config.flies)
         self._pop = Population.fresh(self._random(config.flies))
+        # The next generation is written into this one's arrays (no allocation per step).
+        self._spare = Population.fresh(np.empty((config.flies, 3)))
+        self._numba = config.backend is Backend.NUMBA
+        self._rig_constants = rig_constants(rig)
         self._left: np.ndarray | None = None
         self._right: np.ndarray | None = None
         self._stamp_ns = -1
@@ -118,9 +137,9 @@ class FlyEngine:
         pop.fitness = self._fused(pop.vision, pop.xyz)
         ranked = pop.fitness
         if cfg.sharing and cfg.sharing_coefficient > 0:
-            counts = self._neighbour_counts(pop)
-            ranked = shared_fitness(pop.fitness, counts, cfg.sharing_coefficient)
-        keep = survivor_indices(ranked, cfg.survivors)
+            ranked = self._shared(pop)
+        select = survivor_indices_numba if self._numba else survivor_indices
+        keep = select(ranked, cfg.survivors)
         n_new = cfg.flies - len(keep)
         n_immigrants = cfg.immigrants
         from_sonar = self._sonar_immigrants(n_immigrants)
@@ -136,14 +155,17 @@ class FlyEngine:
             sigma_disparity_px=cfg.disparity_mutation_scale * self._radius,
             d_min=cfg.d_min,
             d_max=cfg.d_max,
+            use_numba=self._numba,
         )
-        self._pop = pop.survivors_then(keep, np.concatenate([children, from_sonar, uniform]))
-        evaluations += self._evaluate_stale()
+        newcomers = np.concatenate([children, from_sonar, uniform])
+        self._pop = pop.survivors_then(keep, newcomers, out=self._spare)
+        self._spare = pop
         new = slice(len(keep), None)
+        evaluations += self._evaluate(np.arange(len(keep), cfg.flies))
         self._pop.fitness[new] = self._fused(self._pop.vision[new], self._pop.xyz[new])
         self._generation += 1
-        fitness = self._pop.fitness
-        valid = fitness[fitness > INVALID_FITNESS]
+        summary = fitness_summary_numba if self._numba else fitness_summary_numpy
+        best, valid, median = summary(self._pop.fitness)
         return GenerationStats(
             generation=self._generation,
             evaluations=evaluations,
@@ -152,9 +174,9 @@ class FlyEngine:
             offspring=len(children),
             immigrants=n_immigrants,
             sonar_immigrants=len(from_sonar),
-            valid_flies=len(valid),
-            best_fitness=float(fitness.max()),
-            median_fitness=float(np.median(valid)) if len(valid) else INVALID_FITNESS,
+            valid_flies=int(valid),
+            best_fitness=float(best),
+            median_fitness=float(median),
         )
 
     # --- internals --------------------------------------------------------------------------
@@ -166,12 +188,14 @@ class FlyEngine:
         )
 
     def _evaluate_stale(self) -> int:
-        pop = self._pop
-        index = np.flatnonzero(pop.stale)
+        return self._evaluate(np.flatnonzero(self._pop.stale))
+
+    def _evaluate(self, index: np.ndarray) -> int:
+        """Vision fitness of the flies ``index`` (all stale) on the newest images."""
         if len(index) == 0:
             return 0
-        cfg = self.config
-        if cfg.backend is Backend.NUMBA:
+        pop, cfg = self._pop, self.config
+        if self._numba:
             fitness_numba(
                 self._left, self._right, pop.xyz, self.rig, cfg.window, cfg.guard,
                 index=index, out=pop.vision,
@@ -194,15 +218,20 @@ class FlyEngine:
             self._sonar,
             bonus=cfg.sonar_bonus,
             tolerance=cfg.sonar_tolerance,
-            use_numba=cfg.backend is Backend.NUMBA,
+            use_numba=self._numba,
         )
 
-    def _neighbour_counts(self, pop: Population) -> np.ndarray:
-        u_left, _, v, _ = self.rig.project(pop.xyz)
+    def _shared(self, pop: Population) -> np.ndarray:
+        """The fitness after 2-D sharing in the left image (what selection ranks)."""
         valid = pop.fitness > INVALID_FITNESS
-        if self.config.backend is Backend.NUMBA:
-            return neighbour_counts_numba(u_left, v, valid, self._radius)
-        return neighbour_counts_numpy(u_left, v, valid, self._radius)
+        k = self.config.sharing_coefficient
+        if self._numba:
+            u_left, v = left_projections_numba(pop.xyz, self._rig_constants)
+            counts = neighbour_counts_numba(u_left, v, valid, self._radius)
+            return shared_fitness_numba(pop.fitness, counts, k)
+        u_left, _, v, _ = self.rig.project(pop.xyz)
+        counts = neighbour_counts_numpy(u_left, v, valid, self._radius)
+        return shared_fitness(pop.fitness, counts, k)
 
     def _sonar_immigrants(self, n_immigrants: int) -> np.ndarray:
         cfg = self.config

@@ -50,6 +50,30 @@ class RigConstants:
         )
 
 
+def rig_constants(rig: StereoRig) -> np.ndarray:
+    """(focal, cx, cy, b/2, mount x, mount height) as the float64 array the kernels take."""
+    k = RigConstants.of(rig)
+    return np.array(
+        [k.focal, k.cx, k.cy, k.half_baseline, k.mount_x, k.mount_height], dtype=np.float64
+    )
+
+
+@numba.njit(cache=True, nogil=True)
+def left_projections_numba(xyz, k):  # pragma: no cover - compiled
+    """(u_left, v) of every fly, the same numbers as ``StereoRig.project`` (``k`` from
+    :func:`rig_constants`)."""
+    focal, cx, cy, half_b, mount_x, mount_h = k[0], k[1], k[2], k[3], k[4], k[5]
+    n = xyz.shape[0]
+    u = np.empty(n)
+    v = np.empty(n)
+    for i in range(n):
+        depth = xyz[i, 0] - mount_x
+        safe = depth if depth > 1e-9 else 1e-9
+        u[i] = cx - focal * (xyz[i, 1] - half_b) / safe
+        v[i] = cy - focal * (xyz[i, 2] - mount_h) / safe
+    return u, v
+
+
 def as_planes(image: np.ndarray) -> np.ndarray:
     """(H, W) or (H, W, C) uint8 → (H, W, C) C-contiguous uint8 (a view when possible)."""
     image = np.asarray(image)
@@ -137,33 +161,44 @@ def _sobel_norm2(rows, row, col, channels):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True)
-def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, guard, col, out):
-    """Fitness of flies index[start:stop]; ``col`` is this caller's scratch row."""
+def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, guard, scratch, out):
+    """Fitness of flies index[start:stop]; ``scratch`` (2, ≥ window·channels) int32 is this
+    caller's: per (column, channel) lane, Σd and Σd² over the window's rows."""
     height = lrow.shape[0]
-    width = lrow.shape[1] // channels
+    stride = lrow.shape[1]
+    width = stride // channels
     h = window // 2
     n = window * window
     ncols = window * channels
     denominator_guard = guard * n * channels
+    # Flat images and unsigned offsets: no negative-index wraparound test per pixel, so the
+    # lane loop vectorises (int32 lanes: |Σd| ≤ 31·255 and Σd² ≤ 31·255² fit easily).
+    lflat = lrow.reshape(lrow.size)
+    rflat = rrow.reshape(rrow.size)
+    ustride = np.uint64(stride)
+    col = scratch[0]
+    sqv = scratch[1]
     for t in range(start, stop):
         i = index[t]
         row, cl, cr = _project_valid(xyz[i, 0], xyz[i, 1], xyz[i, 2], k, window, height, width)
         if row < 0:
             out[i] = INVALID_FITNESS
             continue
-        jl0 = (cl - h) * channels
-        jr0 = (cr - h) * channels
-        # Column sums of d = L − R for each (column, channel) of the window: int16 keeps the
-        # row loop contiguous and vectorised (|Σd| ≤ window·255 < 2^15 for window ≤ 31).
-        col[:] = 0
-        sq = np.int32(0)
-        for r in range(row - h, row + h + 1):
-            lr = lrow[r, jl0 : jl0 + ncols]
-            rr = rrow[r, jr0 : jr0 + ncols]
+        bl = np.uint64((row - h) * stride + (cl - h) * channels)
+        br = np.uint64((row - h) * stride + (cr - h) * channels)
+        for j in range(ncols):
+            col[j] = 0
+            sqv[j] = 0
+        for _ in range(window):
             for j in range(ncols):
-                d = np.int16(lr[j]) - np.int16(rr[j])
-                sq += np.int32(d) * np.int32(d)
+                d = np.int32(lflat[bl + np.uint64(j)]) - np.int32(rflat[br + np.uint64(j)])
                 col[j] += d
+                sqv[j] += d * d
+            bl += ustride
+            br += ustride
+        sq = np.int64(0)
+        for j in range(ncols):
+            sq += sqv[j]
         total = np.int64(n) * sq
         for c in range(channels):
             s1 = np.int64(0)
@@ -174,8 +209,8 @@ def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, gua
         out[i] = math.sqrt(math.sqrt(float(grad2))) / (total / n + denominator_guard)
 
 
-# The parallel kernel splits the flies into this many chunks, each with its own scratch row
-# (padded to 128 bytes so threads never share a cache line). No reduction crosses flies, so
+# The parallel kernel splits the flies into this many chunks, each with its own scratch rows
+# (padded to 256 bytes so threads never share a cache line). No reduction crosses flies, so
 # results do not depend on the split or the thread count.
 _CHUNKS = 64
 _SCRATCH = 64
@@ -188,7 +223,7 @@ PARALLEL_MIN_EVALUATIONS = 20_000
 def _fitness_parallel(lrow, rrow, channels, xyz, index, k, window, guard, out):  # pragma: no cover
     m = index.shape[0]
     scratch = np.zeros(
-        (_CHUNKS, _SCRATCH * ((window * channels + _SCRATCH - 1) // _SCRATCH)), dtype=np.int16
+        (_CHUNKS, 2, _SCRATCH * ((window * channels + _SCRATCH - 1) // _SCRATCH)), dtype=np.int32
     )
     for chunk in numba.prange(_CHUNKS):
         _fitness_range(
@@ -199,8 +234,10 @@ def _fitness_parallel(lrow, rrow, channels, xyz, index, k, window, guard, out): 
 
 @numba.njit(cache=True, nogil=True)
 def _fitness_serial(lrow, rrow, channels, xyz, index, k, window, guard, out):  # pragma: no cover
-    col = np.zeros(window * channels, dtype=np.int16)
-    _fitness_range(lrow, rrow, channels, xyz, index, 0, index.shape[0], k, window, guard, col, out)
+    scratch = np.zeros((2, window * channels), dtype=np.int32)
+    _fitness_range(
+        lrow, rrow, channels, xyz, index, 0, index.shape[0], k, window, guard, scratch, out
+    )
 
 
 def fitness_numba(
@@ -224,10 +261,7 @@ def fitness_numba(
         out = np.full(len(xyz), INVALID_FITNESS)
     if index is None:
         index = np.arange(len(xyz), dtype=np.int64)
-    k = RigConstants.of(rig)
-    consts = np.array(
-        [k.focal, k.cx, k.cy, k.half_baseline, k.mount_x, k.mount_height], dtype=np.float64
-    )
+    consts = rig_constants(rig)
     left, right = as_planes(left), as_planes(right)
     height, width, channels = left.shape
     index = np.asarray(index, dtype=np.int64)

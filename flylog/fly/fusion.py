@@ -75,8 +75,37 @@ def sonar_fused(
 ) -> np.ndarray:
     """The multisensor fitness: vision × (1 + B) per confirming sonar. Multiplicative, so a
     fly the images reject gains little (paper §3.2); non-positive fitnesses are unchanged."""
-    confirmations = sonar_confirmations(xyz, reading, tolerance, use_numba=use_numba)
+    if use_numba:
+        sonars = _fired_sonars(reading)
+        return sonar_fused_numba(
+            vision, np.ascontiguousarray(xyz), sonars, math.cos(reading.half_cone), tolerance,
+            bonus,
+        )  # fmt: skip
+    confirmations = sonar_confirmations(xyz, reading, tolerance, use_numba=False)
     return np.where(vision > 0, vision * (1.0 + bonus) ** confirmations, vision)
+
+
+@numba.njit(cache=True, nogil=True)
+def sonar_fused_numba(vision, xyz, sonars, cos_half_cone, tolerance, bonus):  # pragma: no cover
+    """Same values as the numpy path of :func:`sonar_fused`, confirmations counted on the fly
+    and only for flies with a positive fitness."""
+    out = vision.copy()
+    factor = 1.0 + bonus
+    for i in range(xyz.shape[0]):
+        if not vision[i] > 0:
+            continue
+        count = 0
+        for k in range(sonars.shape[0]):
+            dx = xyz[i, 0] - sonars[k, 0]
+            dy = xyz[i, 1] - sonars[k, 1]
+            distance = np.sqrt(dx * dx + dy * dy)
+            if (
+                abs(distance - sonars[k, 4]) <= tolerance
+                and dx * sonars[k, 2] + dy * sonars[k, 3] >= distance * cos_half_cone
+            ):
+                count += 1
+        out[i] = vision[i] * factor ** np.float64(count)
+    return out
 
 
 def sonar_immigrants(

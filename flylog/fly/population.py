@@ -5,9 +5,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from flylog.fly.fitness import INVALID_FITNESS
+from flylog.fly.sorting import median_numba
 from flylog.geometry import StereoRig
 
 
@@ -55,17 +57,41 @@ class Population:
                 a.flags.writeable = False
         return out
 
-    def survivors_then(self, keep: np.ndarray, newcomers: np.ndarray) -> Population:
-        """The flies ``keep`` (one generation older), followed by fresh flies ``newcomers``."""
-        new = Population.fresh(newcomers)
-        return Population(
-            xyz=np.concatenate([self.xyz[keep], new.xyz]),
-            fitness=np.concatenate([self.fitness[keep], new.fitness]),
-            vision=np.concatenate([self.vision[keep], new.vision]),
-            stale=np.concatenate([self.stale[keep], new.stale]),
-            stamp_ns=np.concatenate([self.stamp_ns[keep], new.stamp_ns]),
-            age=np.concatenate([self.age[keep] + 1, new.age]),
-        )
+    def survivors_then(
+        self, keep: np.ndarray, newcomers: np.ndarray, *, out: Population | None = None
+    ) -> Population:
+        """The flies ``keep`` (one generation older), followed by fresh flies ``newcomers``;
+        written into ``out`` (same size, not ``self``) when given, to reuse its arrays."""
+        n = len(keep) + len(newcomers)
+        if out is None or len(out) != n or out is self:
+            out = Population.fresh(np.empty((n, 3)))
+        k = len(keep)
+        for name in ("xyz", "fitness", "vision", "stale", "stamp_ns", "age"):
+            np.take(getattr(self, name), keep, axis=0, out=getattr(out, name)[:k])
+        out.age[:k] += 1
+        out.xyz[k:] = newcomers
+        out.fitness[k:] = INVALID_FITNESS
+        out.vision[k:] = INVALID_FITNESS
+        out.stale[k:] = True
+        out.stamp_ns[k:] = -1
+        out.age[k:] = 0
+        return out
+
+
+def fitness_summary_numpy(fitness: np.ndarray) -> tuple[float, int, float]:
+    """(best, number valid, median of the valid) fitness; the median is INVALID_FITNESS
+    when no fly is valid."""
+    valid = fitness[fitness > INVALID_FITNESS]
+    median = float(np.median(valid)) if len(valid) else INVALID_FITNESS
+    return float(fitness.max()), len(valid), median
+
+
+@numba.njit(cache=True, nogil=True)
+def fitness_summary_numba(fitness):  # pragma: no cover - compiled
+    """Same as :func:`fitness_summary_numpy`."""
+    valid = fitness[fitness > INVALID_FITNESS]
+    median = median_numba(valid) if valid.shape[0] else INVALID_FITNESS
+    return fitness.max(), valid.shape[0], median
 
 
 def sharing_radius(n_pixels: int, n_flies: int) -> float:

@@ -75,9 +75,16 @@ def test_same_seed_same_population_bit_for_bit(sonar_scene):
     assert not np.array_equal(a.population.xyz, c.population.xyz)
 
 
-def test_numba_and_numpy_backends_give_the_same_population(sonar_scene):
+@pytest.mark.parametrize(
+    "cfg",
+    [
+        EngineConfig(flies=1000),
+        # Many crossovers of a parent with itself: equal flies, ties at the selection cut.
+        EngineConfig(flies=1000, crossover2_rate=0.45, crossover3_rate=0.45),
+    ],
+)
+def test_numba_and_numpy_backends_give_the_same_population(sonar_scene, cfg):
     pair, reading = sonar_scene
-    cfg = EngineConfig(flies=1000)
     a, _ = run(cfg, (pair,), seed=3, sonar=reading)
     b, _ = run(dataclasses.replace(cfg, backend=Backend.NUMPY), (pair,), seed=3, sonar=reading)
     assert_same_population(a.population, b.population)

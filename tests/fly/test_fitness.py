@@ -3,7 +3,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flylog.fly.fitness import INVALID_FITNESS, fitness_numba, fitness_numpy
+from flylog.fly.fitness import (
+    INVALID_FITNESS,
+    fitness_numba,
+    fitness_numpy,
+    left_projections_numba,
+    rig_constants,
+)
 from flylog.geometry import StereoRig
 from tests.fly.analytic import render, room
 
@@ -117,3 +123,13 @@ def test_invalid_flies_get_lowest_fitness(impl, frame):
     # Far flies: right projection ≈ left one; u = h is the first column whose window fits.
     assert got[0] >= 0 and got[2] >= 0
     assert list(got[[1, 3, 4, 5]]) == [INVALID_FITNESS] * 4
+
+
+def test_left_projections_kernel_equals_rig_project():
+    rng = np.random.default_rng(4)
+    xyz = np.column_stack([rng.uniform(-1, 6, 500), rng.uniform(-3, 3, 500), rng.random(500)])
+    xyz[0, 0] = SMALL.mount_x  # in the camera plane: the projection's guard
+    u, _, v, _ = SMALL.project(xyz)
+    got_u, got_v = left_projections_numba(xyz, rig_constants(SMALL))
+    np.testing.assert_array_equal(got_u, u)
+    np.testing.assert_array_equal(got_v, v)

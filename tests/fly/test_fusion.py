@@ -12,6 +12,7 @@ from flylog.fly.fusion import (
     sonar_confirmations_numba,
     sonar_confirmations_numpy,
     sonar_fused,
+    sonar_fused_numba,
     sonar_immigrants,
 )
 from flylog.geometry import Pose2D, StereoRig, compose
@@ -63,13 +64,31 @@ def test_confirmation_kernel_equals_reference(seed):
     )
 
 
-def test_fusion_multiplies_only_positive_confirmed_fitness():
+@pytest.mark.parametrize("use_numba", [True, False])
+def test_fusion_multiplies_only_positive_confirmed_fitness(use_numba):
     mx, my, yaw = MOUNTS[0]
     on = [mx + math.cos(yaw), my + math.sin(yaw), 0.3]
     xyz = np.array([on, on, [5.0, 0.0, 0.3]])
     vision = np.array([2.0, -1.0, 2.0])
-    got = sonar_fused(vision, xyz, reading([1.0] + [np.nan] * 5), bonus=0.5, tolerance=0.1)
+    got = sonar_fused(
+        vision, xyz, reading([1.0] + [np.nan] * 5), bonus=0.5, tolerance=0.1, use_numba=use_numba
+    )
     assert list(got) == [3.0, -1.0, 2.0]
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.floats(0.0, 2.0))
+def test_fused_kernel_equals_reference(seed, bonus):
+    rng = np.random.default_rng(seed)
+    # Sonars facing each other across a small area, so flies are confirmed 0, 1 or 2 times.
+    ranges = np.where(rng.random(6) < 0.8, rng.uniform(0.2, 1.5, 6), np.nan)
+    xyz = np.column_stack([rng.uniform(-0.5, 1.5, 400), rng.uniform(-1, 1, 400), rng.random(400)])
+    vision = np.where(rng.random(400) < 0.2, -1.0, rng.exponential(size=400))
+    r = reading(ranges)
+    expected = sonar_fused(vision, xyz, r, bonus=bonus, tolerance=0.3, use_numba=False)
+    sonars = _fired_sonars(r)
+    got = sonar_fused_numba(vision, xyz, sonars, math.cos(r.half_cone), 0.3, bonus)
+    np.testing.assert_array_equal(got, expected)
 
 
 def test_sonar_immigrants_on_arc_in_cone_and_in_view():

@@ -6,6 +6,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from flylog.fly.operators import (
+    breeding_draws,
+    children_numba,
+    children_numpy,
     crossover2,
     crossover3,
     mutated,
@@ -13,7 +16,9 @@ from flylog.fly.operators import (
     neighbour_counts_numpy,
     offspring,
     shared_fitness,
+    shared_fitness_numba,
     survivor_indices,
+    survivor_indices_numba,
 )
 from flylog.fly.population import random_flies, sharing_radius
 from flylog.geometry import StereoRig
@@ -40,10 +45,31 @@ def test_sharing_radius_formula():
     assert sharing_radius(100, 1000) == 0.0
 
 
-def test_selection_keeps_the_best_fraction_best_first():
+SELECTIONS = [survivor_indices, survivor_indices_numba]
+SHARINGS = [shared_fitness, shared_fitness_numba]
+
+
+@pytest.mark.parametrize("select", SELECTIONS)
+def test_selection_keeps_the_best_fraction_best_first(select):
     fitness = np.array([0.1, 0.9, -1.0, 0.5, 0.5, 0.3])
-    assert list(survivor_indices(fitness, 3)) == [1, 3, 4]
-    assert list(survivor_indices(fitness, 6)) == [1, 3, 4, 5, 0, 2]
+    assert list(select(fitness, 3)) == [1, 3, 4]
+    assert list(select(fitness, 6)) == [1, 3, 4, 5, 0, 2]
+    # Ties at the cut: the lowest indices stay.
+    assert list(select(np.array([0.2, 0.5, 0.2, 0.9, 0.2]), 3)) == [3, 1, 0]
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 300), st.floats(0.01, 1.0))
+def test_selection_kernel_equals_reference(seed, n, share):
+    rng = np.random.default_rng(seed)
+    fitness = np.round(rng.normal(size=n), 1)  # rounded: many ties, also at the cut
+    fitness[rng.random(n) < 0.1] = -1.0
+    keep = max(1, round(share * n))
+    expected = survivor_indices(fitness, keep)
+    assert len(expected) == keep and len(set(expected)) == keep
+    assert np.all(np.diff(-fitness[expected]) >= 0)
+    assert fitness[expected].min() >= np.sort(fitness)[-keep]
+    np.testing.assert_array_equal(survivor_indices_numba(fitness, keep), expected)
 
 
 @settings(max_examples=40, deadline=None)
@@ -57,11 +83,25 @@ def test_grid_hash_counts_equal_brute_force(seed, radius, n):
     np.testing.assert_array_equal(neighbour_counts_numba(u, v, valid, radius), expected)
 
 
-def test_sharing_lowers_crowded_flies_by_k_n_median():
+@pytest.mark.parametrize("share", SHARINGS)
+def test_sharing_lowers_crowded_flies_by_k_n_median(share):
     fitness = np.array([2.0, 4.0, 6.0, -1.0])
     counts = np.array([0, 3, 1, 5])
-    got = shared_fitness(fitness, counts, 0.1)
+    got = share(fitness, counts, 0.1)
     np.testing.assert_allclose(got, [2.0, 4.0 - 0.1 * 3 * 4.0, 6.0 - 0.1 * 4.0, -1.0])
+    none_positive = np.array([-1.0, 0.0])
+    np.testing.assert_array_equal(share(none_positive, np.array([2, 2]), 0.1), none_positive)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 200))
+def test_sharing_kernel_equals_reference(seed, n):
+    rng = np.random.default_rng(seed)
+    fitness = np.where(rng.random(n) < 0.2, -1.0, rng.exponential(size=n))
+    counts = rng.integers(0, 9, n)
+    np.testing.assert_array_equal(
+        shared_fitness_numba(fitness, counts, 0.07), shared_fitness(fitness, counts, 0.07)
+    )
 
 
 def test_mutation_is_gaussian_in_image_and_disparity():
@@ -132,3 +172,35 @@ def test_offspring_operator_shares(rate2, rate3):
     # Crossover of two equal parents is also a copy: P = 1/3 with 3 parents drawn uniformly.
     expected = 1 - rate2 * (2 / 3) - rate3 * (1 - 3 / 27)
     assert copies.mean() == pytest.approx(expected, abs=0.015)
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    st.integers(0, 2**32 - 1),
+    st.integers(0, 300),
+    st.sampled_from([(0.0, 0.0), (0.1, 0.1), (0.5, 0.5), (1.0, 0.0), (0.0, 1.0)]),
+)
+def test_children_kernel_equals_reference(seed, n, rates):
+    rng = np.random.default_rng(seed)
+    parents = random_flies(rng, RIG, 50, d_min=0.5, d_max=20.0, margin=3)
+    parents[0, 0] = RIG.mount_x - 0.5  # one parent behind the cameras: projection guarded
+    draws = breeding_draws(rng, len(parents), n, *rates)
+    assert len(draws.lam) == np.sum(draws.which < rates[0])
+    options = dict(
+        rate2=rates[0], rate3=rates[1], sigma_px=3.4, sigma_disparity_px=1.7,
+        d_min=0.5, d_max=20.0,
+    )  # fmt: skip
+    expected = children_numpy(parents, draws, RIG, **options)
+    np.testing.assert_array_equal(children_numba(parents, draws, RIG, **options), expected)
+
+
+def test_offspring_same_seed_same_children_for_both_implementations():
+    parents = random_flies(np.random.default_rng(6), RIG, 100, d_min=0.5, d_max=20.0, margin=3)
+    options = dict(
+        rate2=0.2, rate3=0.2, sigma_px=3.0, sigma_disparity_px=1.0, d_min=0.5, d_max=20.0
+    )
+    a = offspring(np.random.default_rng(7), parents, 500, RIG, **options)
+    b = offspring(np.random.default_rng(7), parents, 500, RIG, **options, use_numba=True)
+    np.testing.assert_array_equal(a, b)
+    c = offspring(np.random.default_rng(8), parents, 500, RIG, **options, use_numba=True)
+    assert not np.array_equal(a, c)

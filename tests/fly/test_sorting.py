@@ -1,0 +1,26 @@
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from flylog.fly.sorting import median_numba, stable_argsort_numba
+
+
+def test_known_order_ties_in_index_order_and_signed_zero():
+    values = np.array([0.5, -1.0, 0.0, -0.0, 0.5, -np.inf, 1e300, -2.5])
+    assert list(stable_argsort_numba(values)) == [5, 7, 1, 2, 3, 0, 4, 6]
+    assert len(stable_argsort_numba(np.empty(0))) == 0
+    assert median_numba(np.array([3.0, 1.0, 2.0])) == 2.0
+    assert median_numba(np.array([4.0, 1.0, 2.0, 3.0])) == 2.5
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 500), st.sampled_from([0, 1, 3]))
+def test_kernels_equal_numpy(seed, n, decimals):
+    rng = np.random.default_rng(seed)
+    # Rounded (many ties), signed, across magnitudes; or all equal but for one.
+    values = np.round(rng.normal(size=n) * 10.0 ** rng.integers(-3, 4, n), decimals)
+    np.testing.assert_array_equal(stable_argsort_numba(values), np.argsort(values, kind="stable"))
+    assert median_numba(values) == np.median(values)
+    flat = np.full(n, 7.0)
+    flat[rng.integers(0, n)] = 1.0
+    np.testing.assert_array_equal(stable_argsort_numba(flat), np.argsort(flat, kind="stable"))
