@@ -55,6 +55,23 @@ from flylog.cli.common import human_bytes, progress_bar, reports_errors, resolut
     show_default=True,
     help="MCAP chunk compression (lz4: fastest to write; zstd: about 40% smaller, twice the CPU).",
 )
+@click.option(
+    "--drive",
+    type=click.Choice(["plan", "planner"]),
+    default="plan",
+    show_default=True,
+    help="plan: the scene's [drive] plan; planner: closed loop, the fly engine and the "
+    "harmonic planner drive the robot (paper Fig. 6) and their outputs go into the log too; "
+    "the simulation ends when the goal is reached.",
+)
+@click.option(
+    "--config",
+    "config_file",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="With --drive planner: the engine/planner configuration, as for `flylog replay "
+    "--config`. [default: built-in defaults]",
+)
 @reports_errors
 def simulate(
     scene: Path,
@@ -64,6 +81,8 @@ def simulate(
     resolution: tuple[int, int] | None,
     frame_rate: float | None,
     compression: str,
+    drive: str,
+    config_file: Path | None,
 ) -> None:
     """Simulate the robot in SCENE (a TOML scene file) and record stereo frames, sonar,
     odometry and ground truth as an MCAP log."""
@@ -80,12 +99,25 @@ def simulate(
         frame_rate=frame_rate,
         log=LogConfig(compression=Compression(compression)),
     )
+    make_driver = None
+    if drive == "planner":
+        from flylog.replay.closed_loop import PlannerDriver
+        from flylog.replay.config import ReplayConfig, load_replay_config
+
+        config = load_replay_config(config_file) if config_file else ReplayConfig()
+
+        def make_driver(scene, write):
+            return PlannerDriver(config, scene.spec.camera, scene.start_pose, scene.goal, write)
+
+    elif config_file is not None:
+        raise click.UsageError("--config goes with --drive planner")
     with progress_bar(f"simulate {loaded.name}", unit="frames") as update:
-        summary = run_simulation(loaded, output, options, on_frame=update)
+        summary = run_simulation(loaded, output, options, make_driver=make_driver, on_frame=update)
     speed = summary.duration / summary.wall_seconds
     stdout.print(
         f"{summary.path}: {summary.frames} stereo frames, {summary.messages} messages, "
         f"{human_bytes(summary.bytes)}, {summary.duration:g} s simulated in "
-        f"{summary.wall_seconds:.1f} s wall ({speed:.1f}× real time)",
+        f"{summary.wall_seconds:.1f} s wall ({speed:.1f}× real time); "
+        f"{summary.goal_distance:.2f} m from the goal",
         soft_wrap=True,
     )

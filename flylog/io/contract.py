@@ -38,6 +38,11 @@ STEREO_PAIR = "flylog.StereoPair"
 IMAGE_TOPICS = MappingProxyType({"left": LEFT_IMAGE, "right": RIGHT_IMAGE})
 CALIBRATION_TOPICS = MappingProxyType({"left": LEFT_CALIBRATION, "right": RIGHT_CALIBRATION})
 
+# ---- metadata records -------------------------------------------------------------------
+
+SIMULATION_METADATA = "flylog.simulation"  # scene, seed, camera, start and goal of a sensor log
+REPLAY_METADATA = "flylog.replay"  # effective configuration and counts of a run
+
 # ---- frames ------------------------------------------------------------------------------
 
 ODOM_FRAME = "odom"

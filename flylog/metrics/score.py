@@ -44,7 +44,6 @@ from flylog.metrics.trajectory import (
 from flylog.metrics.truth import LogTruth, read_truth
 from flylog.scene.load import distance_to_obstacles
 
-REPLAY_METADATA = "flylog.replay"
 # Odometry and truth are written at the same instants by the simulator; allow one 50 Hz
 # period of mismatch for logs from elsewhere (evo's --t_max_diff default is 10 ms).
 _MAX_MATCH_NS = 20_000_000
@@ -96,13 +95,13 @@ def _number(meta: dict[str, str], key: str, kind: type) -> Any:
 
 def run_facts(reader: LogReader, config: MetricsConfig) -> RunFacts:
     """The obstacle rule and run statistics of a run file; the config's rule if absent."""
-    meta = reader.metadata().get(REPLAY_METADATA, {})
+    meta = reader.metadata().get(contract.REPLAY_METADATA, {})
     rule: dict[str, Any] = {}
     if "config" in meta:
         try:
             rule = _find_rule(json.loads(meta["config"])) or {}
         except json.JSONDecodeError as exc:
-            msg = f"{reader.path}: metadata {REPLAY_METADATA}.config is not JSON ({exc})"
+            msg = f"{reader.path}: metadata {contract.REPLAY_METADATA}.config is not JSON ({exc})"
             raise LogError(msg) from None
     return RunFacts(
         quantile=float(rule.get("quantile", config.fly_quantile)),

@@ -20,7 +20,6 @@ from flylog.metrics.trajectory import Trajectory, trajectory
 from flylog.scene.load import Scene, parse_scene
 
 SCENE_ATTACHMENT = "scene.toml"
-SIMULATION_METADATA = "flylog.simulation"
 
 
 @dataclass(frozen=True)
@@ -51,9 +50,9 @@ def read_rig(reader: LogReader, scene: Scene) -> StereoRig:
     """The rig the log was recorded with: metadata ``flylog.simulation`` ``camera`` (it
     holds ``--resolution``), else the scene's camera with the left calibration's size and
     focal length, else the scene's camera."""
-    meta = reader.metadata().get(SIMULATION_METADATA, {})
+    meta = reader.metadata().get(contract.SIMULATION_METADATA, {})
     if "camera" in meta:
-        source = f"{reader.path}: metadata {SIMULATION_METADATA}.camera"
+        source = f"{reader.path}: metadata {contract.SIMULATION_METADATA}.camera"
         try:
             data: Any = json.loads(meta["camera"])
         except json.JSONDecodeError as exc:

@@ -55,7 +55,7 @@ def replay_inputs(reader: LogReader, *, goal: tuple[float, float] | None) -> Rep
     rig = _rig(reader)
     first_odom = next(iter(reader.messages([contract.ODOM]))).value
     if goal is None:
-        meta = reader.metadata().get("flylog.simulation", {})
+        meta = reader.metadata().get(contract.SIMULATION_METADATA, {})
         if "goal" not in meta:
             msg = (
                 f"{reader.path} does not say where the goal is (no 'goal' in its "

@@ -12,6 +12,7 @@ import pyarrow as pa
 
 from flylog.config import to_mapping
 from flylog.errors import LogError
+from flylog.io import contract
 from flylog.io.pairing import pair_stereo
 from flylog.io.reader import open_log
 from flylog.io.tables import TableWriter
@@ -42,8 +43,6 @@ STEP_SCHEMA = pa.schema(
         ("potential_change", pa.float64()),  # largest change of the tick's last SOR sweep
     ]
 )
-
-REPLAY_METADATA = "flylog.replay"
 
 
 @dataclass(frozen=True)
@@ -110,7 +109,7 @@ def replay(
             stats = clock.finish(inputs.end_ns)
             wall = time.perf_counter() - t0
             out.add_metadata(
-                REPLAY_METADATA,
+                contract.REPLAY_METADATA,
                 {
                     "config": json.dumps(to_mapping(config)),
                     "log": str(log),

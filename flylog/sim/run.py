@@ -38,9 +38,21 @@ _STATIC_PERIOD_NS = 1_000_000_000
 DEFAULT_DURATION = 20.0
 
 
-class Observer(Protocol):
+Write = Callable[[str, int, object], None]
+
+
+class ClosedLoopDriver(Driver, Protocol):
+    """A driver that also consumes the sensor records and writes its own output topics."""
+
+    @property
+    def finished(self) -> bool:
+        """True once the driver is done (goal reached): the simulation ends there."""
+
     def observe(self, record: object) -> None:
-        """A sensor record was just produced (a closed-loop driver consumes them)."""
+        """A sensor record was just produced."""
+
+    def finish(self, end_ns: int) -> dict[str, str]:
+        """Flush at the end of the log; return the metadata to store (REPLAY_METADATA)."""
 
 
 @dataclass(frozen=True)
@@ -91,14 +103,15 @@ def simulate(
     output: Path,
     options: SimulationOptions,
     *,
-    driver: Driver | None = None,
+    make_driver: Callable[[Scene, Write], ClosedLoopDriver] | None = None,
     on_frame: Callable[[int, int], None] | None = None,
 ) -> SimulationSummary:
     """Simulate ``scene`` and write the log atomically to ``output``.
 
-    ``driver`` defaults to the scene's driving plan; if it also has ``observe``, it receives
-    every sensor record as it is produced (closed loop). ``on_frame(done, total)`` reports
-    progress in stereo frames.
+    The scene's driving plan drives the robot unless ``make_driver(scene, write)`` builds a
+    closed-loop driver: it then receives every sensor record as it is produced, writes its
+    outputs into the same log, and ends the simulation when it has finished (goal reached).
+    ``on_frame(done, total)`` reports progress in stereo frames.
     """
     from flylog.sim.render import Renderer
     from flylog.sim.sonar import sonar_ranges
@@ -109,8 +122,6 @@ def simulate(
     rig, sonar_cfg, odo_cfg = spec.camera, spec.sonar, spec.odometry
     duration = simulation_duration(scene, options)
     end_ns = round(duration * 1e9)
-    driver = driver if driver is not None else PlanDriver(spec.drive, goal=scene.goal)
-    observe = getattr(driver, "observe", None)
     trajectory_rng, sonar_rng = (
         np.random.default_rng(s) for s in np.random.SeedSequence(options.seed).spawn(2)
     )
@@ -135,12 +146,17 @@ def simulate(
     frames = messages = 0
     with LogWriter.from_config(output, options.log) as log:
         log.attach("scene.toml", scene.text.encode(), "application/toml")
-        log.add_metadata("flylog.simulation", _metadata(scene, options, duration))
+        log.add_metadata(contract.SIMULATION_METADATA, _metadata(scene, options, duration))
 
         def write(topic: str, t_ns: int, message: object) -> None:
             nonlocal messages
             log.write(topic, t_ns, message)
             messages += 1
+
+        closed: ClosedLoopDriver | None = None
+        driver: Driver = PlanDriver(spec.drive, goal=scene.goal)
+        if make_driver is not None:
+            driver = closed = make_driver(scene, write)
 
         while events:
             t_ns, _, kind = heapq.heappop(events)
@@ -169,9 +185,11 @@ def simulate(
                     t_ns,
                     encode.pose_in_frame(poses.true, t_ns, contract.ODOM_FRAME),
                 )
-                if observe is not None:
-                    observe(odom)
+                if closed is not None:
+                    closed.observe(odom)
                 command = driver.command(t_ns / 1e9, poses.odom)
+                if closed is not None and closed.finished:
+                    break  # the goal is reached: the log ends here
             elif kind == "sonar":
                 ranges = sonar_ranges(scene, sonar_cfg, poses.true, sonar_rng)
                 reading = SonarReading(
@@ -182,8 +200,8 @@ def simulate(
                     t_ns,
                     encode.sonar_ranges(reading, min_range=sonar_cfg.min_range),
                 )
-                if observe is not None:
-                    observe(reading)
+                if closed is not None:
+                    closed.observe(reading)
             else:
                 pair = renderer.render(poses.true)
                 for side, image in (("left", pair.left), ("right", pair.right)):
@@ -194,15 +212,17 @@ def simulate(
                         t_ns,
                         encode.camera_calibration(rig, side, t_ns),
                     )
-                if observe is not None:
-                    observe(StereoPair(t_ns, pair.left, pair.right))
+                if closed is not None:
+                    closed.observe(StereoPair(t_ns, pair.left, pair.right))
                 frames += 1
                 if on_frame is not None:
                     on_frame(frames, total_frames)
+        if closed is not None:
+            log.add_metadata(contract.REPLAY_METADATA, closed.finish(now_ns))
     gx, gy = scene.goal
     return SimulationSummary(
         path=output,
-        duration=duration,
+        duration=now_ns / 1e9,
         frames=frames,
         messages=messages,
         bytes=output.stat().st_size,

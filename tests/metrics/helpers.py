@@ -83,7 +83,7 @@ def write_run(
         "log_duration": "2.0",
     }
     with LogWriter(path) as log:
-        log.add_metadata("flylog.replay", metadata if metadata is not None else meta)
+        log.add_metadata(contract.REPLAY_METADATA, metadata if metadata is not None else meta)
         for t, _, topic, message in events:
             log.write(topic, t, message)
     return path

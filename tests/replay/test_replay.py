@@ -14,7 +14,7 @@ from flylog.config import from_mapping
 from flylog.io import contract
 from flylog.io.reader import open_log
 from flylog.replay.config import ReplayConfig
-from flylog.replay.run import REPLAY_METADATA, replay
+from flylog.replay.run import replay
 
 LOGS = Path(__file__).resolve().parents[2] / "fixtures" / "logs"
 CORRIDOR = LOGS / "corridor.mcap"
@@ -65,7 +65,7 @@ def test_per_frame_mode_runs_exactly_n_generations_per_frame(corridor_run):
 
 
 def test_effective_config_is_stored_and_reproduces_the_run(corridor_run, tmp_path):
-    meta = open_log(corridor_run.output).metadata()[REPLAY_METADATA]
+    meta = open_log(corridor_run.output).metadata()[contract.REPLAY_METADATA]
     stored = from_mapping(ReplayConfig, json.loads(meta["config"]), source="metadata")
     assert stored == SMALL
     again = replay(CORRIDOR, tmp_path / "again.mcap", stored)
@@ -138,7 +138,7 @@ def test_cli_config_file_and_overrides(tmp_path):
               "--generations-per-frame", "1"])  # fmt: skip
     assert result.exit_code == 0, result.output
     assert "31 generations" in result.output
-    stored = json.loads(open_log(out).metadata()[REPLAY_METADATA]["config"])
+    stored = json.loads(open_log(out).metadata()[contract.REPLAY_METADATA]["config"])
     assert (stored["seed"], stored["generations_per_frame"], stored["engine"]["flies"]) == (
         7,
         1,

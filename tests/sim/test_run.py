@@ -59,7 +59,7 @@ def test_log_carries_scene_and_mission(corridor_log):
     (attachment,) = reader.attachments()
     assert attachment.name == "scene.toml"
     assert attachment.data.decode() == (SCENES / "corridor.toml").read_text()
-    meta = reader.metadata()["flylog.simulation"]
+    meta = reader.metadata()[contract.SIMULATION_METADATA]
     assert meta["seed"] == "3" and meta["scene"] == "corridor"
     assert '"width": 64' in meta["camera"]
 
