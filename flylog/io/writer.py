@@ -47,9 +47,10 @@ MAX_WRITE_LAG_NS = 1_000_000_000
 class LogConfig:
     """How logs are written."""
 
-    # lz4 keeps the simulator above 30 stereo pairs/s: on its 640×480 frames lz4 costs
-    # ~3 ms a pair (size 0.34 of raw), zstd level 3 (mcap's) ~7 ms (0.20 of raw); on
-    # heavily textured frames zstd costs 6–18 ms for little gain (benchmarks/bench_io.py).
+    # lz4 keeps the simulator above 30 stereo pairs/s even on one core: on its 640×480
+    # frames (benchmarks/bench_simulate.py) simulate runs at ~34 pairs/s single-threaded
+    # with lz4 (logs 0.35–0.40 of raw), ~29 with zstd level 3, mcap's (0.21–0.24 of raw,
+    # ~4–5 ms more a pair); reading back is about as fast for both (~300 pairs/s).
     compression: Compression = param(
         Compression.LZ4,
         help="chunk compression: lz4 (fast), zstd (~40 % smaller, ~2× the CPU) or none",

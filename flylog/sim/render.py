@@ -7,7 +7,9 @@ its 3-D ray at them (a side face if the height at entry is within [0, h], the to
 ray comes down through h inside the footprint), else the ground (ray going down) or the sky.
 The 2-D ray parameter is the depth along the optical axis, so depth comes for free.
 
-:class:`Renderer` runs a numba kernel, parallel over the columns of both images;
+:class:`Renderer` runs a numba kernel, parallel over blocks of columns of both images; each
+column first finds its surfaces, then textures all its rows at once (vectorised, see
+:func:`flylog.sim.textures.texture_column`), then shades them;
 :func:`render_reference` is the plain-numpy reference (slow, for tests at small sizes).
 """
 
@@ -22,10 +24,12 @@ import numpy as np
 from flylog.geometry import Pose2D, StereoRig
 from flylog.scene.footprints import DISC, Footprints, ray_hit, ray_hits_numpy
 from flylog.scene.load import Scene
-from flylog.sim.textures import N_OCTAVES, texture_value_cached, texture_value_numpy
+from flylog.sim.textures import texture_column, texture_value_numpy
 
 GROUND = -1
 SKY = -2
+# Columns per parallel job (their scratch arrays are allocated once per job).
+_BLOCK = 16
 # A pixel's footprint on the ground (and tops) grows as 1/cos(incidence), capped for grazing
 # views. The incidence is taken from the image row only (the same in both cameras) so that
 # the texture's fading, and hence the colour of a surface point, is the same in both images;
@@ -100,13 +104,16 @@ class Renderer:
         rgb = np.empty((n_img, rig.height, rig.width, 3), dtype=np.uint8)
         depth = np.empty((rig.height, rig.width), dtype=np.float32)
         ids = np.empty((rig.height, rig.width), dtype=np.int16)
-        _render_kernel(
-            origins, dirs, rig.mount_height, rig.focal_px, rig.cy, rig.height,
-            fp.kind, fp.cx, fp.cy, fp.cos, fp.sin, fp.hx, fp.hy, fp.height,
-            fp.color, fp.feature_size, fp.contrast,
-            a.ground_color, a.ground_feature, a.ground_contrast, a.light, a.ambient, a.sky,
-            want_color, rgb, depth, ids,
-        )  # fmt: skip
+        # Blocks handed out one at a time: a thread slowed by other processes on its core
+        # does fewer of them instead of holding up the frame.
+        with numba.parallel_chunksize(1):
+            _render_kernel(
+                origins, dirs, rig.mount_height, rig.focal_px, rig.cy, rig.height,
+                fp.kind, fp.cx, fp.cy, fp.cos, fp.sin, fp.hx, fp.hy, fp.height,
+                fp.color, fp.feature_size, fp.contrast,
+                a.ground_color, a.ground_feature, a.ground_contrast, a.light, a.ambient, a.sky,
+                want_color, rgb, depth, ids,
+            )  # fmt: skip
         return rgb, depth, ids
 
     def render(self, pose: Pose2D) -> RenderedPair:
@@ -130,91 +137,136 @@ def _render_kernel(
 ):  # fmt: skip
     n_cams, width = dirs.shape[0], dirs.shape[1]
     n = kind.shape[0]
-    for job in numba.prange(n_cams * width):
-        cam, u = job // width, job % width
-        ox, oy = origins[cam, 0], origins[cam, 1]
-        dx, dy = dirs[cam, u, 0], dirs[cam, u, 1]
+    n_blocks = (width + _BLOCK - 1) // _BLOCK
+    for job in numba.prange(n_cams * n_blocks):
+        cam, block = job // n_blocks, job % n_blocks
+        # Scratch for a block of columns: per obstacle (hits), per row (surface, texture).
         t_in = np.empty(n)
         t_out = np.empty(n)
         nxs = np.empty(n)
         nys = np.empty(n)
         side_s = np.empty(n)
         order = np.empty(n, dtype=np.int64)
-        tex_keys = np.full((N_OCTAVES, 3), -1, dtype=np.int64)
-        tex_corners = np.zeros((N_OCTAVES, 4))
-        n_hit = 0
-        for k in range(n):
-            a, b, nx, ny = ray_hit(
-                kind[k], ocx[k], ocy[k], ocos[k], osin[k], ohx[k], ohy[k], ox, oy, dx, dy
-            )
-            t_in[k], t_out[k], nxs[k], nys[k] = a, b, nx, ny
-            if b >= a:
-                # A side face is hit at the same 2-D point by every row: its texture
-                # coordinate along the face is computed once per column.
-                ex, ey = ox + a * dx, oy + a * dy
-                if kind[k] == DISC:
-                    side_s[k] = ohx[k] * math.atan2(ny, nx)
-                else:
-                    side_s[k] = -ny * ex + nx * ey
-                # Insertion sort by entry depth: a column crosses few footprints.
-                j = n_hit
-                while j > 0 and t_in[order[j - 1]] > a:
-                    order[j] = order[j - 1]
-                    j -= 1
-                order[j] = k
-                n_hit += 1
-        for v in range(height):
-            slope = (v - cy) / f  # the 3-D ray descends by `slope` per metre of depth
-            best, hit, top = np.inf, -2, False
-            if slope > 0.0:
-                best, hit = hc / slope, -1
-            for i in range(n_hit):
-                k = order[i]
-                if t_in[k] >= best:
-                    break
-                if t_in[k] > 0.0:
-                    z_in = hc - slope * t_in[k]
-                    if 0.0 <= z_in <= oh[k]:
-                        best, hit, top = t_in[k], k, False
-                        continue
-                if slope > 0.0 and hc > oh[k]:
-                    t_top = (hc - oh[k]) / slope
-                    if max(t_in[k], 0.0) <= t_top <= t_out[k] and t_top < best:
-                        best, hit, top = t_top, k, True
-            if cam == 0:
-                depth[v, u] = best
-                ids[v, u] = hit
-            if not want_color:
-                continue
-            if hit == -2:
-                for ch in range(3):
-                    rgb[cam, v, u, ch] = np.uint8(math.floor(sky[ch] * 255.0 + 0.5))
-                continue
-            px, py = ox + best * dx, oy + best * dy
-            if hit == -1 or top:
-                nx, ny, nz = 0.0, 0.0, 1.0
-                s, t = px, py
+        r_best = np.empty(height)
+        r_hit = np.empty(height, dtype=np.int64)
+        r_top = np.empty(height, dtype=np.bool_)
+        r_s = np.empty(height)
+        r_t = np.empty(height)
+        r_seed = np.empty(height, dtype=np.int64)
+        r_feat = np.empty(height)
+        r_fp = np.empty(height)
+        r_tex = np.empty(height)
+        r_q = np.empty((3, height))
+        for u in range(block * _BLOCK, min(block * _BLOCK + _BLOCK, width)):
+            _render_column(
+                cam, u, origins, dirs, hc, f, cy, height,
+                kind, ocx, ocy, ocos, osin, ohx, ohy, oh, ocolor, ofeat, ocontrast,
+                gcolor, gfeat, gcontrast, light, ambient, sky,
+                want_color, rgb, depth, ids,
+                t_in, t_out, nxs, nys, side_s, order,
+                r_best, r_hit, r_top, r_s, r_t, r_seed, r_feat, r_fp, r_tex, r_q,
+            )  # fmt: skip
+
+
+@numba.njit(cache=True, fastmath={"nsz", "arcp", "contract", "afn"})
+def _render_column(
+    cam, u, origins, dirs, hc, f, cy, height,
+    kind, ocx, ocy, ocos, osin, ohx, ohy, oh, ocolor, ofeat, ocontrast,
+    gcolor, gfeat, gcontrast, light, ambient, sky,
+    want_color, rgb, depth, ids,
+    t_in, t_out, nxs, nys, side_s, order,
+    r_best, r_hit, r_top, r_s, r_t, r_seed, r_feat, r_fp, r_tex, r_q,
+):  # fmt: skip
+    n = kind.shape[0]
+    ox, oy = origins[cam, 0], origins[cam, 1]
+    dx, dy = dirs[cam, u, 0], dirs[cam, u, 1]
+    n_hit = 0
+    for k in range(n):
+        a, b, nx, ny = ray_hit(
+            kind[k], ocx[k], ocy[k], ocos[k], osin[k], ohx[k], ohy[k], ox, oy, dx, dy
+        )
+        t_in[k], t_out[k], nxs[k], nys[k] = a, b, nx, ny
+        if b >= a:
+            # A side face is hit at the same 2-D point by every row: its texture
+            # coordinate along the face is computed once per column.
+            ex, ey = ox + a * dx, oy + a * dy
+            if kind[k] == DISC:
+                side_s[k] = ohx[k] * math.atan2(ny, nx)
             else:
-                nx, ny, nz = nxs[hit], nys[hit], 0.0
-                s, t = side_s[hit], hc - slope * best
-            if hit == -1:
-                seed, feat, contrast = 0, gfeat, gcontrast
-            else:
-                seed = 2 + 2 * hit + (1 if top else 0)
-                feat, contrast = ofeat[hit], ocontrast[hit]
-            incidence = 1.0
-            if nz > 0.0:
-                incidence = max(slope / math.sqrt(1.0 + slope * slope), _MIN_INCIDENCE_COS)
-            tex = texture_value_cached(
-                s, t, seed, feat, best / f / incidence, tex_keys, tex_corners
-            )
-            lambert = max(nx * light[0] + ny * light[1] + nz * light[2], 0.0)
-            shade = ambient + (1.0 - ambient) * lambert
-            gain = (1.0 + contrast * (2.0 * tex - 1.0)) * shade
+                side_s[k] = -ny * ex + nx * ey
+            # Insertion sort by entry depth: a column crosses few footprints.
+            j = n_hit
+            while j > 0 and t_in[order[j - 1]] > a:
+                order[j] = order[j - 1]
+                j -= 1
+            order[j] = k
+            n_hit += 1
+    first_seen = height  # sky is the top of a column: the rows above the first surface
+    for v in range(height):
+        slope = (v - cy) / f  # the 3-D ray descends by `slope` per metre of depth
+        best, hit, top = np.inf, -2, False
+        if slope > 0.0:
+            best, hit = hc / slope, -1
+        for i in range(n_hit):
+            k = order[i]
+            if t_in[k] >= best:
+                break
+            if t_in[k] > 0.0:
+                z_in = hc - slope * t_in[k]
+                if 0.0 <= z_in <= oh[k]:
+                    best, hit, top = t_in[k], k, False
+                    continue
+            if slope > 0.0 and hc > oh[k]:
+                t_top = (hc - oh[k]) / slope
+                if max(t_in[k], 0.0) <= t_top <= t_out[k] and t_top < best:
+                    best, hit, top = t_top, k, True
+        if cam == 0:
+            depth[v, u] = best
+            ids[v, u] = hit
+        if not want_color:
+            continue
+        r_best[v], r_hit[v], r_top[v] = best, hit, top
+        if hit == -2:
+            r_s[v], r_t[v], r_seed[v], r_feat[v], r_fp[v] = 0.0, 0.0, 0, 1.0, 1.0
+            continue
+        first_seen = min(first_seen, v)
+        px, py = ox + best * dx, oy + best * dy
+        if hit == -1 or top:
+            s, t = px, py
+        else:
+            s, t = side_s[hit], hc - slope * best
+        if hit == -1:
+            seed, feat = 0, gfeat
+        else:
+            seed = 2 + 2 * hit + (1 if top else 0)
+            feat = ofeat[hit]
+        incidence = 1.0
+        if hit == -1 or top:
+            incidence = max(slope / math.sqrt(1.0 + slope * slope), _MIN_INCIDENCE_COS)
+        r_s[v], r_t[v], r_seed[v], r_feat[v], r_fp[v] = s, t, seed, feat, best / f / incidence
+    if not want_color:
+        return
+    # The texture of the whole column at once, in vectorised loops: most of the time.
+    texture_column(r_s, r_t, r_seed, r_feat, r_fp, first_seen, height, r_tex, r_q)
+    for v in range(height):
+        hit, top, best = r_hit[v], r_top[v], r_best[v]
+        if hit == -2:
             for ch in range(3):
-                base = gcolor[ch] if hit == -1 else ocolor[hit, ch]
-                val = min(max(base * gain, 0.0), 1.0)
-                rgb[cam, v, u, ch] = np.uint8(math.floor(val * 255.0 + 0.5))
+                rgb[cam, v, u, ch] = np.uint8(math.floor(sky[ch] * 255.0 + 0.5))
+            continue
+        if hit == -1 or top:
+            nx, ny, nz = 0.0, 0.0, 1.0
+        else:
+            nx, ny, nz = nxs[hit], nys[hit], 0.0
+        contrast = gcontrast if hit == -1 else ocontrast[hit]
+        tex = r_tex[v]
+        lambert = max(nx * light[0] + ny * light[1] + nz * light[2], 0.0)
+        shade = ambient + (1.0 - ambient) * lambert
+        gain = (1.0 + contrast * (2.0 * tex - 1.0)) * shade
+        for ch in range(3):
+            base = gcolor[ch] if hit == -1 else ocolor[hit, ch]
+            val = min(max(base * gain, 0.0), 1.0)
+            rgb[cam, v, u, ch] = np.uint8(math.floor(val * 255.0 + 0.5))
 
 
 def render_reference(scene: Scene, rig: StereoRig, pose: Pose2D) -> RenderedPair:

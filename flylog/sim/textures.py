@@ -7,8 +7,9 @@ would on a real surface. Octaves finer than about two pixels at the viewing dist
 faded to their mean, which keeps far ground from aliasing into sparkle (that would differ
 between the two cameras and make stereo matching meaningless).
 
-Every function has a numba version (scalar, used by the renderer's kernel) and a plain numpy
-version (vectorised, used by the reference renderer); tests compare them.
+:func:`texture_column` (numba, one image column at a time, used by the renderer's kernel)
+and :func:`texture_value_numpy` (the plain-numpy reference) give bit-identical values; tests
+compare them.
 """
 
 from __future__ import annotations
@@ -20,104 +21,95 @@ import numpy as np
 
 # Octaves: spacing = feature_size * _SPACING[k], weight _WEIGHT[k] (sum 1): coarse to fine.
 # The finest octave (half the feature size) gives a 7×7 window structure at 1 m.
+# The spacings must stay powers of two (see texture_column).
 _SPACING = (4.0, 2.0, 1.0, 0.5)
 _WEIGHT = (0.25, 0.25, 0.25, 0.25)
 N_OCTAVES = len(_SPACING)
+assert all(math.frexp(m)[0] == 0.5 for m in _SPACING), "octave spacings must be powers of 2"
 _MASK = 0xFFFFFFFF
+# The lattice hash (hash01_numpy): its int64 arithmetic is masked to 32 bits, so uint32
+# arithmetic (which vectorises) gives the same bits.
+_HX, _HY, _HS, _HM = 73856093, 19349663, 83492791, 0x45D9F3B
+_U32 = np.uint32
+_I32 = np.int32
 
 
-@numba.njit(cache=True)
-def hash01(ix: int, iy: int, seed: int) -> float:
-    """A lattice value in [0, 1): 32-bit integer hash of (ix, iy, seed), in int64 arithmetic."""
-    h = ((ix * 73856093) ^ (iy * 19349663) ^ (seed * 83492791)) & _MASK
-    h = (((h >> 16) ^ h) * 0x45D9F3B) & _MASK
-    h = (((h >> 16) ^ h) * 0x45D9F3B) & _MASK
-    h = (h >> 16) ^ h
-    return h / 4294967296.0
+@numba.njit(cache=True, inline="always")
+def _mix01(h):
+    """The last three rounds of the lattice hash, as a float in [0, 1)."""
+    h = _U32(_U32(_U32(h >> _U32(16)) ^ h) * _U32(_HM))
+    h = _U32(_U32(_U32(h >> _U32(16)) ^ h) * _U32(_HM))
+    h = _U32(_U32(h >> _U32(16)) ^ h)
+    # uint32 → float64 through int32 (AVX2 converts signed integers only); exact.
+    return (np.float64(_I32(h ^ _U32(0x80000000))) + 2147483648.0) * (1.0 / 4294967296.0)
 
 
-@numba.njit(cache=True)
-def value_noise(x: float, y: float, seed: int) -> float:
-    """Smooth value noise in [0, 1) with unit lattice spacing."""
-    fx, fy = math.floor(x), math.floor(y)
-    ix, iy = int(fx), int(fy)
-    tx, ty = x - fx, y - fy
-    sx, sy = tx * tx * (3.0 - 2.0 * tx), ty * ty * (3.0 - 2.0 * ty)
-    a = hash01(ix, iy, seed)
-    b = hash01(ix + 1, iy, seed)
-    c = hash01(ix, iy + 1, seed)
-    d = hash01(ix + 1, iy + 1, seed)
-    top = a + (b - a) * sx
-    bottom = c + (d - c) * sx
-    return top + (bottom - top) * sy
+# error_model="numpy": no zero-division checks, whose branches would stop vectorisation.
+@numba.njit(cache=True, error_model="numpy")
+def texture_column(s, t, seed, feature_size, footprint, lo, hi, out, scratch):
+    """Texture values of rows lo..hi-1 of 1-D arrays (s, t, seed, feature_size, footprint)
+    into ``out``, as :func:`texture_value_numpy`, bit for bit; ``scratch`` is (3, >= hi).
 
-
-@numba.njit(cache=True)
-def texture_value(s: float, t: float, seed: int, feature_size: float, footprint: float) -> float:
-    """Octave sum in [0, 1) at surface coordinates (s, t) m; ``footprint`` is the size of a
-    pixel on the surface (m): octaves below two pixels fade to their mean 0.5."""
-    total = 0.0
-    for k in range(len(_SPACING)):
-        spacing = feature_size * _SPACING[k]
-        weight = _WEIGHT[k]
-        fade = min(max(spacing / footprint - 1.0, 0.0), 1.0)
-        n = 0.5
-        if fade > 0.0:
-            n = value_noise(s / spacing, t / spacing, seed * 4 + k)
-            n = 0.5 + fade * (n - 0.5)
-        total += weight * n
-    return total
-
-
-@numba.njit(cache=True)
-def texture_value_cached(
-    s: float,
-    t: float,
-    seed: int,
-    feature_size: float,
-    footprint: float,
-    keys: np.ndarray,
-    corners: np.ndarray,
-) -> float:
-    """:func:`texture_value`, reusing the lattice values of the previous call per octave.
-
-    Neighbouring pixels of a column mostly fall into the same lattice cell (octaves under
-    two pixels are faded out), so this skips most hashing. ``keys`` (octaves, 3) int64 holds
-    the cell (ix, iy, seed) whose four lattice values are in ``corners`` (octaves, 4); start
-    with seeds of -1. Same arithmetic as :func:`value_noise`, so the results are identical.
+    Branch-free octave loops the compiler vectorises; an octave is computed only over the
+    rows between the first and the last where it is not faded out. Lattice coordinates
+    (s / spacing) must lie within ±2**31 where an octave is visible.
     """
-    total = 0.0
-    for k in range(len(_SPACING)):
-        spacing = feature_size * _SPACING[k]
-        fade = min(max(spacing / footprint - 1.0, 0.0), 1.0)
-        n = 0.5
-        if fade > 0.0:
-            x, y = s / spacing, t / spacing
-            fx, fy = math.floor(x), math.floor(y)
-            ix, iy, sd = int(fx), int(fy), seed * 4 + k
-            if keys[k, 0] != ix or keys[k, 1] != iy or keys[k, 2] != sd:
-                keys[k, 0], keys[k, 1], keys[k, 2] = ix, iy, sd
-                corners[k, 0] = hash01(ix, iy, sd)
-                corners[k, 1] = hash01(ix + 1, iy, sd)
-                corners[k, 2] = hash01(ix, iy + 1, sd)
-                corners[k, 3] = hash01(ix + 1, iy + 1, sd)
-            tx, ty = x - fx, y - fy
-            sx, sy = tx * tx * (3.0 - 2.0 * tx), ty * ty * (3.0 - 2.0 * ty)
-            a, b, c, d = corners[k, 0], corners[k, 1], corners[k, 2], corners[k, 3]
-            top = a + (b - a) * sx
-            bottom = c + (d - c) * sx
-            n = 0.5 + fade * (top + (bottom - top) * sy - 0.5)
-        total += _WEIGHT[k] * n
-    return total
+    # Spacings are feature_size times powers of two, so one division per pixel serves
+    # every octave bit for bit: scaling by a power of two commutes with rounding.
+    qs, qt, qf = scratch[0], scratch[1], scratch[2]
+    for i in range(lo, hi):
+        out[i] = 0.0
+        qs[i] = s[i] / feature_size[i]
+        qt[i] = t[i] / feature_size[i]
+        qf[i] = feature_size[i] / footprint[i]
+    for k in range(N_OCTAVES):
+        mult = _SPACING[k]
+        weight = _WEIGHT[k]
+        first, last = hi, lo  # rows with fade > 0, i.e. spacing / footprint > 1
+        for i in range(lo, hi):
+            if qf[i] * mult > 1.0:
+                first = min(first, i)
+                last = i + 1
+        # Elsewhere the full formula adds weight * (0.5 + 0 * (noise - 0.5)).
+        for i in range(lo, first):
+            out[i] += weight * 0.5
+        for i in range(max(first, last), hi):
+            out[i] += weight * 0.5
+        if last > first:
+            # Slices, so that the loop index is known to be non-negative (no wraparound
+            # branch in the loop): that is what lets the loop vectorise.
+            _add_octave(
+                qs[first:last], qt[first:last], qf[first:last], seed[first:last],
+                k, mult, 1.0 / mult, weight, out[first:last],
+            )  # fmt: skip
 
 
-def new_texture_cache() -> tuple[np.ndarray, np.ndarray]:
-    """Empty (keys, corners) for :func:`texture_value_cached`."""
-    return np.full((N_OCTAVES, 3), -1, dtype=np.int64), np.zeros((N_OCTAVES, 4))
+@numba.njit(cache=True, error_model="numpy")
+def _add_octave(qs, qt, qf, seed, k, mult, inv, weight, out):
+    for i in range(out.shape[0]):
+        fade = min(max(qf[i] * mult - 1.0, 0.0), 1.0)
+        x, y = qs[i] * inv, qt[i] * inv
+        fx, fy = np.floor(x), np.floor(y)
+        ix, iy = _U32(_I32(fx)), _U32(_I32(fy))
+        hs = _U32(_U32(seed[i] * 4 + k) * _U32(_HS))
+        hx0 = _U32(ix * _U32(_HX))
+        hx1 = _U32(hx0 + _U32(_HX))
+        hy0 = _U32(iy * _U32(_HY))
+        hy1 = _U32(_U32(hy0 + _U32(_HY)) ^ hs)
+        hy0 = _U32(hy0 ^ hs)
+        a = _mix01(_U32(hx0 ^ hy0))
+        b = _mix01(_U32(hx1 ^ hy0))
+        c = _mix01(_U32(hx0 ^ hy1))
+        d = _mix01(_U32(hx1 ^ hy1))
+        tx, ty = x - fx, y - fy
+        sx, sy = tx * tx * (3.0 - 2.0 * tx), ty * ty * (3.0 - 2.0 * ty)
+        top = a + (b - a) * sx
+        bottom = c + (d - c) * sx
+        out[i] += weight * (0.5 + fade * (top + (bottom - top) * sy - 0.5))
 
 
 def hash01_numpy(ix: np.ndarray, iy: np.ndarray, seed: np.ndarray) -> np.ndarray:
-    """Plain-numpy reference of :func:`hash01` (int64 arrays)."""
+    """A lattice value in [0, 1): 32-bit integer hash of (ix, iy, seed) int64 arrays."""
     h = ((ix * 73856093) ^ (iy * 19349663) ^ (seed * 83492791)) & _MASK
     h = (((h >> 16) ^ h) * 0x45D9F3B) & _MASK
     h = (((h >> 16) ^ h) * 0x45D9F3B) & _MASK
@@ -126,7 +118,7 @@ def hash01_numpy(ix: np.ndarray, iy: np.ndarray, seed: np.ndarray) -> np.ndarray
 
 
 def value_noise_numpy(x: np.ndarray, y: np.ndarray, seed: np.ndarray) -> np.ndarray:
-    """Plain-numpy reference of :func:`value_noise`."""
+    """Smooth value noise in [0, 1) with unit lattice spacing."""
     fx, fy = np.floor(x), np.floor(y)
     ix, iy = fx.astype(np.int64), fy.astype(np.int64)
     tx, ty = x - fx, y - fy
@@ -140,7 +132,9 @@ def value_noise_numpy(x: np.ndarray, y: np.ndarray, seed: np.ndarray) -> np.ndar
 def texture_value_numpy(
     s: np.ndarray, t: np.ndarray, seed: np.ndarray, feature_size: np.ndarray, footprint: np.ndarray
 ) -> np.ndarray:
-    """Plain-numpy reference of :func:`texture_value` (all arguments broadcast)."""
+    """Octave sum in [0, 1) at surface coordinates (s, t) m (all arguments broadcast);
+    ``footprint`` is the size of a pixel on the surface (m): octaves below two pixels fade to
+    their mean 0.5. Plain-numpy reference of :func:`texture_column`."""
     s, t, seed, feature_size, footprint = np.broadcast_arrays(
         s, t, np.asarray(seed, dtype=np.int64), feature_size, footprint
     )
