@@ -21,6 +21,8 @@ frame x forward at start (by convention), y left, z up. A wrong name, type or ra
     elevation_deg = 50.0          # ... and this elevation
     ambient = 0.35                # ambient fraction
     sky_color = [0.62, 0.75, 0.92]
+    sky_feature_deg = 2.0         # the sky is textured by direction (zero disparity) ...
+    sky_contrast = 0.3            # ... 0 gives a plain sky
 
     [[obstacles]]                 # one table per obstacle
     kind = "box"                  # required: "box" | "cylinder" | "wall"

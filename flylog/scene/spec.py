@@ -46,7 +46,12 @@ class GroundConfig:
 
 @dataclass(frozen=True)
 class LightingConfig:
-    """A directional light for Lambertian shading, plus ambient light and a plain sky."""
+    """A directional light for Lambertian shading, plus ambient light and the sky.
+
+    The sky's texture is a function of the viewing direction only (it is at infinity), so
+    both cameras see it at zero disparity, as a real sky; a plain sky would meet the far
+    ground in a horizontal edge that matches equally well at every depth.
+    """
 
     azimuth_deg: float = param(30.0, help="direction the light comes from (world)", unit="deg")
     elevation_deg: float = param(
@@ -56,6 +61,10 @@ class LightingConfig:
     sky_color: tuple[float, float, float] = param(
         (0.62, 0.75, 0.92), help="colour of the sky, RGB in [0, 1]"
     )
+    sky_feature_deg: float = param(
+        2.0, help="angular size of the sky's (cloud) texture", unit="deg", min=0.01
+    )
+    sky_contrast: float = param(0.3, help="contrast of the sky's texture (0: plain)", min=0, max=1)
 
     def light_vector(self) -> tuple[float, float, float]:
         """Unit vector pointing towards the light (world)."""

@@ -34,6 +34,8 @@ _BLOCK = 16
 # views. The incidence is taken from the image row only (the same in both cameras) so that
 # the texture's fading, and hence the colour of a surface point, is the same in both images;
 # vertical faces use the depth alone for the same reason.
+# Texture seeds: 0 ground, 1 sky, 2 + 2k (+1 for the top) obstacle k.
+SKY_SEED = 1
 _MIN_INCIDENCE_COS = 0.05
 
 
@@ -57,7 +59,7 @@ class _SceneArrays:
     ground_contrast: float
     light: np.ndarray  # (3,) unit vector towards the light
     ambient: float
-    sky: np.ndarray  # (3,)
+    sky: np.ndarray  # (5,): RGB, texture feature size (rad), texture contrast
 
 
 def _scene_arrays(scene: Scene) -> _SceneArrays:
@@ -70,7 +72,9 @@ def _scene_arrays(scene: Scene) -> _SceneArrays:
         ground_contrast=tex.contrast,
         light=np.array(lighting.light_vector()),
         ambient=lighting.ambient,
-        sky=np.array(lighting.sky_color, dtype=float),
+        sky=np.array(
+            [*lighting.sky_color, math.radians(lighting.sky_feature_deg), lighting.sky_contrast]
+        ),
     )
 
 
@@ -226,10 +230,12 @@ def _render_column(
         if not want_color:
             continue
         r_best[v], r_hit[v], r_top[v] = best, hit, top
-        if hit == -2:
-            r_s[v], r_t[v], r_seed[v], r_feat[v], r_fp[v] = 0.0, 0.0, 0, 1.0, 1.0
-            continue
         first_seen = min(first_seen, v)
+        if hit == -2:
+            # Texture of the direction (azimuth, elevation): the same in both cameras.
+            r_s[v], r_t[v], r_seed[v] = math.atan2(dy, dx), math.atan(-slope), SKY_SEED
+            r_feat[v], r_fp[v] = sky[3], 1.0 / f
+            continue
         px, py = ox + best * dx, oy + best * dy
         if hit == -1 or top:
             s, t = px, py
@@ -251,8 +257,10 @@ def _render_column(
     for v in range(height):
         hit, top, best = r_hit[v], r_top[v], r_best[v]
         if hit == -2:
+            gain = 1.0 + sky[4] * (2.0 * r_tex[v] - 1.0)
             for ch in range(3):
-                rgb[cam, v, u, ch] = np.uint8(math.floor(sky[ch] * 255.0 + 0.5))
+                val = min(max(sky[ch] * gain, 0.0), 1.0)
+                rgb[cam, v, u, ch] = np.uint8(math.floor(val * 255.0 + 0.5))
             continue
         if hit == -1 or top:
             nx, ny, nz = 0.0, 0.0, 1.0
@@ -331,20 +339,23 @@ def _shade_column_numpy(a, hc, f, ox, oy, dx, dy, slope, best, hit, top, nxs, ny
         along = np.where(fp.kind[k] == DISC, fp.hx[k] * np.arctan2(ny, nx), -ny * px + nx * py)
     else:
         along = px
-    s = np.where(flat, px, along)
-    t = np.where(flat, py, hc - slope * finite)
-    seed = np.where(obstacle, 2 + 2 * k + top, 0)
+    sky = hit == -2
+    s = np.where(sky, math.atan2(dy, dx), np.where(flat, px, along))
+    t = np.where(sky, np.arctan(-slope), np.where(flat, py, hc - slope * finite))
+    seed = np.where(sky, SKY_SEED, np.where(obstacle, 2 + 2 * k + top, 0))
     feat = np.where(obstacle, fp.feature_size[k], a.ground_feature) if len(fp) else a.ground_feature
+    feat = np.where(sky, a.sky[3], feat)
     contrast = (
         np.where(obstacle, fp.contrast[k], a.ground_contrast) if len(fp) else a.ground_contrast
     )
     grazing = np.maximum(slope / np.sqrt(1.0 + slope * slope), _MIN_INCIDENCE_COS)
     incidence = np.where(nz > 0.0, grazing, 1.0)
-    footprint = np.where(np.isinf(best), 1.0, finite / f / incidence)
+    footprint = np.where(sky, 1.0 / f, finite / f / incidence)
     tex = texture_value_numpy(s, t, seed, feat, footprint)
     lambert = np.maximum(nx * a.light[0] + ny * a.light[1] + nz * a.light[2], 0.0)
     gain = (1.0 + contrast * (2.0 * tex - 1.0)) * (a.ambient + (1.0 - a.ambient) * lambert)
     base = np.where(obstacle[:, None], fp.color[k] if len(fp) else 0.0, a.ground_color)
     val = np.clip(base * gain[:, None], 0.0, 1.0)
-    val = np.where((hit == -2)[:, None], a.sky, val)
+    sky_val = np.clip(a.sky[:3] * (1.0 + a.sky[4] * (2.0 * tex - 1.0))[:, None], 0.0, 1.0)
+    val = np.where(sky[:, None], sky_val, val)
     return np.floor(val * 255.0 + 0.5).astype(np.uint8)

@@ -87,7 +87,12 @@ def test_empty_scene_is_ground_below_the_horizon_and_sky_above(impl):
     assert np.all(out.ids[below] == GROUND)
     expect = SMALL.mount_height * SMALL.focal_px / (v[below] - SMALL.cy)
     np.testing.assert_allclose(out.depth[below], np.repeat(expect[:, None], SMALL.width, 1))
-    sky = out.left[~below].reshape(-1, 3)
+    # The sky is textured by direction only: the same pixels in both cameras (zero
+    # disparity, as at infinity), and not plain.
+    np.testing.assert_array_equal(out.left[~below], out.right[~below])
+    assert out.left[~below].std() > 2.0
+    plain = parse_scene('name = "plain"\n[lighting]\nsky_contrast = 0.0\n', "mem")
+    sky = render_with(impl, plain, SMALL, Pose2D(1.0, 2.0, 0.3)).left[~below].reshape(-1, 3)
     assert np.all(sky == sky[0])
 
 
