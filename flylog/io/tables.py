@@ -4,14 +4,40 @@ from __future__ import annotations
 
 import os
 import tempfile
+from collections.abc import Iterable
 from pathlib import Path
 from types import TracebackType
-from typing import Any
+from typing import Any, NamedTuple
 
 import pyarrow as pa
 import pyarrow.parquet as pq
 
 from flylog.errors import LogError
+
+
+class Column(NamedTuple):
+    """A documented column: its unit and description go into the Parquet field metadata."""
+
+    name: str
+    type: pa.DataType
+    unit: str
+    description: str
+
+
+def schema(columns: Iterable[Column]) -> pa.Schema:
+    return pa.schema(
+        [
+            pa.field(c.name, c.type, metadata={"description": c.description, "unit": c.unit})
+            for c in columns
+        ]
+    )
+
+
+def schema_markdown(columns: Iterable[Column]) -> str:
+    """A Markdown table of the columns (for the README)."""
+    lines = ["| column | type | unit | meaning |", "|---|---|---|---|"]
+    lines += [f"| `{c.name}` | {c.type} | {c.unit} | {c.description} |" for c in columns]
+    return "\n".join(lines)
 
 
 class TableWriter:

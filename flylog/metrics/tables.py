@@ -12,24 +12,17 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any
 
 import pyarrow as pa
 import pyarrow.parquet as pq
 
 from flylog.errors import LogError
-from flylog.io.tables import TableWriter
+from flylog.io.tables import Column, TableWriter, schema
 
 SUMMARY_SUFFIX = ".summary.parquet"
 OBSTACLES_SUFFIX = ".obstacles.parquet"
 METADATA_KEY = "flylog.metrics"
-
-
-class Column(NamedTuple):
-    name: str
-    type: pa.DataType
-    unit: str
-    description: str
 
 
 _F, _I, _B, _S = pa.float64(), pa.int64(), pa.bool_(), pa.string()
@@ -98,22 +91,6 @@ OBSTACLE_COLUMNS = (
     Column("max_visible_pixels", _I, "px", "most pixels of the view it ever covered"),
     Column("max_flies_on", _I, "", "most obstacle flies ever on it"),
 )
-
-
-def schema(columns: Iterable[Column]) -> pa.Schema:
-    return pa.schema(
-        [
-            pa.field(c.name, c.type, metadata={"description": c.description, "unit": c.unit})
-            for c in columns
-        ]
-    )
-
-
-def schema_markdown(columns: Iterable[Column]) -> str:
-    """A Markdown table of the columns (for the README)."""
-    lines = ["| column | type | unit | meaning |", "|---|---|---|---|"]
-    lines += [f"| `{c.name}` | {c.type} | {c.unit} | {c.description} |" for c in columns]
-    return "\n".join(lines)
 
 
 def clean(value: Any) -> Any:

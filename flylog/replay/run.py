@@ -15,33 +15,33 @@ from flylog.errors import LogError
 from flylog.io import contract
 from flylog.io.pairing import pair_stereo
 from flylog.io.reader import open_log
-from flylog.io.tables import TableWriter
+from flylog.io.tables import Column, TableWriter, schema
 from flylog.io.writer import LogWriter
 from flylog.replay.clock import ClockConfig, VirtualClock
 from flylog.replay.config import ReplayConfig
 from flylog.replay.inputs import SENSOR_TOPICS, replay_inputs
 from flylog.replay.pipeline import PLANNER_TICK, SNAPSHOT_TICK, FlyPipeline
 
-# One row per planner tick (documented in the README).
-STEP_SCHEMA = pa.schema(
-    [
-        ("t", pa.float64()),  # log time, s
-        ("generation", pa.int64()),  # generations behind the population the planner saw
-        ("evaluations", pa.int64()),  # fitness evaluations so far
-        ("valid_flies", pa.int64()),  # flies inside both images with positive fitness
-        ("obstacle_flies", pa.int64()),
-        ("best_fitness", pa.float64()),
-        ("median_fitness", pa.float64()),
-        ("image_latency", pa.float64()),  # s: tick time − stamp of the images those flies saw
-        ("odom_latency", pa.float64()),  # s: tick time − stamp of the newest odometry
-        ("x", pa.float64()),  # odometric pose, m / rad
-        ("y", pa.float64()),
-        ("theta", pa.float64()),
-        ("linear", pa.float64()),  # command, m/s
-        ("angular", pa.float64()),  # command, rad/s
-        ("status", pa.string()),  # driving | goal_reached | stuck
-        ("potential_change", pa.float64()),  # largest change of the tick's last SOR sweep
-    ]
+_F, _I, _S = pa.float64(), pa.int64(), pa.string()
+
+# RUN.parquet: one row per planner tick (the README's table is made from this).
+STEP_COLUMNS = (
+    Column("t", _F, "s", "log time of the planner tick"),
+    Column("generation", _I, "", "generations behind the population the planner saw"),
+    Column("evaluations", _I, "", "fitness evaluations so far"),
+    Column("valid_flies", _I, "", "flies inside both images, with positive fitness"),
+    Column("obstacle_flies", _I, "", "flies taken for obstacles (the [obstacles] rule)"),
+    Column("best_fitness", _F, "", "best fitness of the population the planner saw"),
+    Column("median_fitness", _F, "", "median fitness of its valid flies"),
+    Column("image_latency", _F, "s", "tick time − stamp of the images those flies were scored on"),
+    Column("odom_latency", _F, "s", "tick time − stamp of the newest odometry"),
+    Column("x", _F, "m", "odometric position x"),
+    Column("y", _F, "m", "odometric position y"),
+    Column("theta", _F, "rad", "odometric heading"),
+    Column("linear", _F, "m/s", "commanded linear velocity"),
+    Column("angular", _F, "rad/s", "commanded angular velocity"),
+    Column("status", _S, "", "planner status: driving, goal_reached or stuck"),
+    Column("potential_change", _F, "", "largest change of the tick's last SOR sweep"),
 )
 
 
@@ -97,7 +97,7 @@ def replay(
     duration = (inputs.end_ns - inputs.start_ns) / 1e9
     existed = table.exists()
     try:
-        with LogWriter(output) as out, TableWriter(table, STEP_SCHEMA) as rows:
+        with LogWriter(output) as out, TableWriter(table, schema(STEP_COLUMNS)) as rows:
             pipeline = FlyPipeline(
                 config, inputs.rig, inputs.start, inputs.goal, out.write, on_row=rows.append
             )
