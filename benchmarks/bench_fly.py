@@ -5,9 +5,11 @@ Figures are noisy on a shared 2-core machine: run twice and compare.
 
 from __future__ import annotations
 
+import cProfile
 import json
 import math
 import os
+import pstats
 import subprocess
 import sys
 import tempfile
@@ -180,6 +182,60 @@ def _generation_figures(pair, depth, reading, rig) -> list[dict]:
     ]
 
 
+# The engine's kernels and operators, as cProfile names them (file, function).
+_PROFILED = [
+    ("fitness.py", "_fitness_serial"),
+    ("operators.py", "neighbour_counts_into"),
+    ("operators.py", "breeding_draws"),
+    ("operators.py", "survivor_indices_numba"),
+    ("operators.py", "shared_fitness_numba"),
+    ("fusion.py", "sonar_fuse_into"),
+    ("fusion.py", "sonar_immigrants"),
+    ("population.py", "fitness_summary_numba"),
+    ("population.py", "_survivors_kernel"),
+    ("operators.py", "_children_kernel"),
+    ("engine.py", "step"),
+]
+
+
+def _profile_figures(pair, reading, rig) -> list[dict]:
+    """Per-kernel time per generation in replay's rhythm (a new pair after motion every 10
+    generations, sonar on), from cProfile: tottime except for the cumulative whole step and
+    sonar immigrants (drawing and building)."""
+    engine = FlyEngine(EngineConfig(flies=5000), rig, np.random.default_rng(0))
+    engine.set_images(pair)
+    engine.set_sonar(reading)
+    for _ in range(10):
+        engine.step()
+    frames, per_frame = 100, 10
+    from flylog.geometry import Pose2D
+
+    profile = cProfile.Profile()
+    profile.enable()
+    for i in range(frames):
+        engine.apply_motion(Pose2D(0.01, 0.0, 0.002))
+        engine.set_images(StereoPair(i + 1, pair.left, pair.right))
+        for _ in range(per_frame):
+            engine.step()
+    profile.disable()
+    stats = pstats.Stats(profile).stats  # type: ignore[attr-defined]
+    gens = frames * per_frame
+    figures = []
+    for (path, _, name), (_, _, tottime, cumtime, _) in stats.items():
+        for file, function in _PROFILED:
+            if path.endswith(file) and name == function:
+                cumulative = name in ("step", "sonar_immigrants")
+                seconds = cumtime if cumulative else tottime
+                figures.append(
+                    {
+                        "name": f"profile: {file} {name} ({'cum' if cumulative else 'own'})",
+                        "value": seconds / gens * 1e3,
+                        "unit": "ms/gen",
+                    }
+                )
+    return sorted(figures, key=lambda f: -f["value"])
+
+
 _COMPILE_PROBE = """
 import time, json
 t0 = time.perf_counter()
@@ -225,5 +281,6 @@ def run(out_dir: Path) -> list[dict]:
     return (
         _fitness_figures(pair, rig)
         + _generation_figures(pair, depth, reading, rig)
+        + _profile_figures(pair, reading, rig)
         + _compile_figures()
     )

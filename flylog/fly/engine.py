@@ -8,6 +8,7 @@ select the best fraction, refill with offspring and immigrants, evaluate the new
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -17,14 +18,20 @@ from flylog.fly.config import Backend, EngineConfig
 from flylog.fly.fitness import (
     INVALID_FITNESS,
     as_planes,
-    fitness_numba,
+    fitness_into,
     fitness_numpy,
     left_projections_numba,
     rig_constants,
 )
-from flylog.fly.fusion import moved_by_odometry, sonar_fused, sonar_immigrants
+from flylog.fly.fusion import (
+    fired_sonars,
+    moved_by_odometry,
+    sonar_fuse_into,
+    sonar_fused,
+    sonar_immigrants,
+)
 from flylog.fly.operators import (
-    neighbour_counts_numba,
+    NeighbourCounter,
     neighbour_counts_numpy,
     offspring,
     shared_fitness,
@@ -76,10 +83,17 @@ class FlyEngine:
         self._spare = Population.fresh(np.empty((config.flies, 3)))
         self._numba = config.backend is Backend.NUMBA
         self._rig_constants = rig_constants(rig)
+        self._counter = NeighbourCounter()
+        self._all = np.arange(config.flies, dtype=np.int64)
+        self._newcomers = self._all[config.survivors :]
         self._left: np.ndarray | None = None
         self._right: np.ndarray | None = None
         self._stamp_ns = -1
         self._sonar: SonarReading | None = None
+        self._sonars = np.empty((0, 5))  # fired_sonars(self._sonar)
+        # The reading every fly's fitness was fused with (None: fitness = vision); a fly's
+        # fitness is recomputed only when its vision is, unless the reading changes.
+        self._fused_with: SonarReading | None = None
         self._generation = 0
 
     # --- inputs -----------------------------------------------------------------------------
@@ -100,6 +114,7 @@ class FlyEngine:
     def set_sonar(self, reading: SonarReading) -> None:
         """Use this sonar reading (in base_link) for fusion until the next one."""
         self._sonar = reading
+        self._sonars = fired_sonars(reading)
 
     def apply_motion(self, increment: Pose2D) -> None:
         """Proprioception: move every fly by the inverse of the robot's motion ``increment``
@@ -132,46 +147,45 @@ class FlyEngine:
             msg = "the fly engine has no images yet: call set_images() before step()"
             raise FlylogError(msg)
         cfg = self.config
-        evaluations = self._evaluate_stale()
         pop = self._pop
-        pop.fitness = self._fused(pop.vision, pop.xyz)
+        stale = np.flatnonzero(pop.stale)
+        evaluations = self._evaluate(stale)
+        self._fuse(stale)
         ranked = pop.fitness
         if cfg.sharing and cfg.sharing_coefficient > 0:
             ranked = self._shared(pop)
         select = survivor_indices_numba if self._numba else survivor_indices
         keep = select(ranked, cfg.survivors)
-        n_new = cfg.flies - len(keep)
+        k = len(keep)
         n_immigrants = cfg.immigrants
+        n_children = cfg.flies - k - n_immigrants
+        # random numbers in this order: sonar arcs, uniform immigrants, breeding
         from_sonar = self._sonar_immigrants(n_immigrants)
         uniform = self._random(n_immigrants - len(from_sonar))
-        children = offspring(
-            self._rng,
-            pop.xyz[keep],
-            n_new - n_immigrants,
-            self.rig,
-            rate2=cfg.crossover2_rate if cfg.crossover2 else 0.0,
-            rate3=cfg.crossover3_rate if cfg.crossover3 else 0.0,
-            sigma_px=cfg.mutation_scale * self._radius,
-            sigma_disparity_px=cfg.disparity_mutation_scale * self._radius,
-            d_min=cfg.d_min,
-            d_max=cfg.d_max,
-            use_numba=self._numba,
-        )
-        newcomers = np.concatenate([children, from_sonar, uniform])
-        self._pop = pop.survivors_then(keep, newcomers, out=self._spare)
-        self._spare = pop
-        new = slice(len(keep), None)
-        evaluations += self._evaluate(np.arange(len(keep), cfg.flies))
-        self._pop.fitness[new] = self._fused(self._pop.vision[new], self._pop.xyz[new])
+        nxt = self._spare
+        if self._numba:
+            pop.survivors_into(keep, nxt)
+            parents = nxt.xyz[:k]  # the survivors, already gathered
+            children = nxt.xyz[k : k + n_children]
+            self._offspring(parents, n_children, out=children)
+            at = k + n_children
+            nxt.xyz[at : at + len(from_sonar)] = from_sonar
+            nxt.xyz[at + len(from_sonar) :] = uniform
+        else:
+            children = self._offspring(pop.xyz[keep], n_children)
+            pop.survivors_then(keep, np.concatenate([children, from_sonar, uniform]), out=nxt)
+        self._pop, self._spare = nxt, pop
+        evaluations += self._evaluate(self._newcomers)
+        self._fuse(self._newcomers)
         self._generation += 1
         summary = fitness_summary_numba if self._numba else fitness_summary_numpy
-        best, valid, median = summary(self._pop.fitness)
+        best, valid, median = summary(nxt.fitness)
         return GenerationStats(
             generation=self._generation,
             evaluations=evaluations,
             image_stamp_ns=self._stamp_ns,
-            survivors=len(keep),
-            offspring=len(children),
+            survivors=k,
+            offspring=n_children,
             immigrants=n_immigrants,
             sonar_immigrants=len(from_sonar),
             valid_flies=int(valid),
@@ -187,18 +201,36 @@ class FlyEngine:
             self._rng, self.rig, n, d_min=cfg.d_min, d_max=cfg.d_max, margin=self._margin
         )
 
-    def _evaluate_stale(self) -> int:
-        return self._evaluate(np.flatnonzero(self._pop.stale))
+    def _offspring(self, parents: np.ndarray, n: int, out: np.ndarray | None = None) -> np.ndarray:
+        cfg = self.config
+        return offspring(
+            self._rng,
+            parents,
+            n,
+            self.rig,
+            rate2=cfg.crossover2_rate if cfg.crossover2 else 0.0,
+            rate3=cfg.crossover3_rate if cfg.crossover3 else 0.0,
+            sigma_px=cfg.mutation_scale * self._radius,
+            sigma_disparity_px=cfg.disparity_mutation_scale * self._radius,
+            d_min=cfg.d_min,
+            d_max=cfg.d_max,
+            use_numba=self._numba,
+            out=out,
+        )
 
     def _evaluate(self, index: np.ndarray) -> int:
         """Vision fitness of the flies ``index`` (all stale) on the newest images."""
         if len(index) == 0:
             return 0
         pop, cfg = self._pop, self.config
+        assert self._left is not None and self._right is not None
         if self._numba:
-            fitness_numba(
-                self._left, self._right, pop.xyz, self.rig, cfg.window, cfg.guard,
-                index=index, out=pop.vision,
+            height, width, channels = self._left.shape
+            fitness_into(
+                self._left.reshape(height, width * channels),
+                self._right.reshape(height, width * channels),
+                channels, pop.xyz, index, self._rig_constants, cfg.window, float(cfg.guard),
+                pop.vision,
             )  # fmt: skip
         else:
             pop.vision[index] = fitness_numpy(
@@ -208,18 +240,26 @@ class FlyEngine:
         pop.stamp_ns[index] = self._stamp_ns
         return len(index)
 
-    def _fused(self, vision: np.ndarray, xyz: np.ndarray) -> np.ndarray:
-        cfg = self.config
-        if not cfg.sonar_fitness or self._sonar is None or cfg.sonar_bonus == 0:
-            return vision.copy()
-        return sonar_fused(
-            vision,
-            xyz,
-            self._sonar,
-            bonus=cfg.sonar_bonus,
-            tolerance=cfg.sonar_tolerance,
-            use_numba=self._numba,
-        )
+    def _fuse(self, index: np.ndarray) -> None:
+        """The fused fitness of the flies ``index`` (of every fly if the reading changed)."""
+        cfg, pop = self.config, self._pop
+        reading = self._sonar if cfg.sonar_fitness and cfg.sonar_bonus != 0 else None
+        if reading is not self._fused_with:
+            index, self._fused_with = self._all, reading
+        if len(index) == 0:
+            return
+        if reading is None or len(self._sonars) == 0:
+            pop.fitness[index] = pop.vision[index]
+        elif self._numba:
+            sonar_fuse_into(
+                pop.vision, pop.xyz, self._sonars, math.cos(reading.half_cone),
+                cfg.sonar_tolerance, cfg.sonar_bonus, index, pop.fitness,
+            )  # fmt: skip
+        else:
+            pop.fitness[index] = sonar_fused(
+                pop.vision[index], pop.xyz[index], reading, bonus=cfg.sonar_bonus,
+                tolerance=cfg.sonar_tolerance, use_numba=False,
+            )  # fmt: skip
 
     def _shared(self, pop: Population) -> np.ndarray:
         """The fitness after 2-D sharing in the left image (what selection ranks)."""
@@ -227,7 +267,7 @@ class FlyEngine:
         k = self.config.sharing_coefficient
         if self._numba:
             u_left, v = left_projections_numba(pop.xyz, self._rig_constants)
-            counts = neighbour_counts_numba(u_left, v, valid, self._radius)
+            counts = self._counter(u_left, v, valid, self._radius)
             return shared_fitness_numba(pop.fitness, counts, k)
         u_left, _, v, _ = self.rig.project(pop.xyz)
         counts = neighbour_counts_numpy(u_left, v, valid, self._radius)
@@ -239,5 +279,6 @@ class FlyEngine:
             return np.empty((0, 3))
         n = round(cfg.sonar_immigration_fraction * n_immigrants)
         return sonar_immigrants(
-            self._rng, self._sonar, n, self.rig, tolerance=cfg.sonar_tolerance, margin=self._margin
-        )
+            self._rng, self._sonar, n, self.rig, tolerance=cfg.sonar_tolerance,
+            margin=self._margin, use_numba=self._numba,
+        )  # fmt: skip

@@ -240,6 +240,25 @@ def _fitness_serial(lrow, rrow, channels, xyz, index, k, window, guard, out):  #
     )
 
 
+def fitness_into(
+    left_rows: np.ndarray,
+    right_rows: np.ndarray,
+    channels: int,
+    xyz: np.ndarray,
+    index: np.ndarray,
+    consts: np.ndarray,
+    window: int,
+    guard: float,
+    out: np.ndarray,
+    parallel_min: int = PARALLEL_MIN_EVALUATIONS,
+) -> None:
+    """:func:`fitness_numba` without the argument conversions, for a caller (the engine) that
+    keeps them: (H, W·C) uint8 rows, C-contiguous float64 ``xyz``, int64 ``index``, ``consts``
+    from :func:`rig_constants`."""
+    kernel = _fitness_parallel if len(index) >= parallel_min else _fitness_serial
+    kernel(left_rows, right_rows, channels, xyz, index, consts, window, guard, out)
+
+
 def fitness_numba(
     left: np.ndarray,
     right: np.ndarray,

@@ -4,6 +4,7 @@ odometry as an operator (paper §3.4)."""
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numba
 import numpy as np
@@ -12,8 +13,8 @@ from flylog.geometry import Pose2D, StereoRig, inverse, transform_points_2d
 from flylog.sensors import SonarReading
 
 
-def _fired_sonars(reading: SonarReading) -> np.ndarray:
-    """(k, 5) x, y, cos yaw, sin yaw, range of each fired sonar."""
+def fired_sonars(reading: SonarReading) -> np.ndarray:
+    """(k, 5) x, y, cos yaw, sin yaw, range of each fired sonar (what the kernels take)."""
     fired = reading.fired
     m = reading.mounts[fired]
     return np.stack(
@@ -24,7 +25,7 @@ def _fired_sonars(reading: SonarReading) -> np.ndarray:
 def sonar_confirmations_numpy(
     xyz: np.ndarray, sonars: np.ndarray, cos_half_cone: float, tolerance: float
 ) -> np.ndarray:
-    """Reference: (N,) how many of ``sonars`` (from :func:`_fired_sonars`) confirm each fly:
+    """Reference: (N,) how many of ``sonars`` (from :func:`fired_sonars`) confirm each fly:
     it lies in the sonar's 2-D cone (angle to the axis ≤ half angle, i.e. axis·d ≥ |d|·cos)
     and its 2-D distance to the transducer is within ``tolerance`` of the measured range."""
     counts = np.zeros(len(xyz), dtype=np.int64)
@@ -57,7 +58,7 @@ def sonar_confirmations(
     xyz: np.ndarray, reading: SonarReading, tolerance: float, *, use_numba: bool = True
 ) -> np.ndarray:
     """(N,) how many fired sonars of ``reading`` confirm each fly (see the reference)."""
-    sonars = _fired_sonars(reading)
+    sonars = fired_sonars(reading)
     cos_half = math.cos(reading.half_cone)
     if use_numba:
         return sonar_confirmations_numba(np.ascontiguousarray(xyz), sonars, cos_half, tolerance)
@@ -76,7 +77,7 @@ def sonar_fused(
     """The multisensor fitness: vision × (1 + B) per confirming sonar. Multiplicative, so a
     fly the images reject gains little (paper §3.2); non-positive fitnesses are unchanged."""
     if use_numba:
-        sonars = _fired_sonars(reading)
+        sonars = fired_sonars(reading)
         return sonar_fused_numba(
             vision, np.ascontiguousarray(xyz), sonars, math.cos(reading.half_cone), tolerance,
             bonus,
@@ -87,25 +88,132 @@ def sonar_fused(
 
 @numba.njit(cache=True, nogil=True)
 def sonar_fused_numba(vision, xyz, sonars, cos_half_cone, tolerance, bonus):  # pragma: no cover
-    """Same values as the numpy path of :func:`sonar_fused`, confirmations counted on the fly
-    and only for flies with a positive fitness."""
+    """Same values as the numpy path of :func:`sonar_fused`."""
     out = vision.copy()
+    sonar_fuse_into(
+        vision, xyz, sonars, cos_half_cone, tolerance, bonus, np.arange(vision.shape[0]), out
+    )
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def sonar_fuse_into(
+    vision, xyz, sonars, cos_half_cone, tolerance, bonus, index, out
+):  # pragma: no cover
+    """``out[i]`` = the numpy path of :func:`sonar_fused` for the flies ``i`` of ``index``:
+    confirmations counted on the fly, only for flies with a positive fitness."""
+    k = sonars.shape[0]
+    # (1 + B)^c for every possible count c, by the same pow as numpy's
+    powers = np.empty(k + 1)
     factor = 1.0 + bonus
-    for i in range(xyz.shape[0]):
+    for c in range(k + 1):
+        powers[c] = factor ** np.float64(c)
+    for t in range(index.shape[0]):
+        i = index[t]
         if not vision[i] > 0:
+            out[i] = vision[i]
             continue
         count = 0
-        for k in range(sonars.shape[0]):
-            dx = xyz[i, 0] - sonars[k, 0]
-            dy = xyz[i, 1] - sonars[k, 1]
+        for s in range(k):
+            dx = xyz[i, 0] - sonars[s, 0]
+            dy = xyz[i, 1] - sonars[s, 1]
             distance = np.sqrt(dx * dx + dy * dy)
             if (
-                abs(distance - sonars[k, 4]) <= tolerance
-                and dx * sonars[k, 2] + dy * sonars[k, 3] >= distance * cos_half_cone
+                abs(distance - sonars[s, 4]) <= tolerance
+                and dx * sonars[s, 2] + dy * sonars[s, 3] >= distance * cos_half_cone
             ):
                 count += 1
-        out[i] = vision[i] * factor ** np.float64(count)
-    return out
+        out[i] = vision[i] * powers[count]
+
+
+@dataclass(frozen=True, slots=True)
+class ArcDraws:
+    """The random candidates of :func:`sonar_immigrants`, drawn in a fixed order so that both
+    implementations keep the same ones: candidate j on the arc of sonar ``sonar[j]``."""
+
+    sonar: np.ndarray  # (m,) int64: index into the reading's sonars
+    cos_bearing: np.ndarray  # (m,) bearing in base_link, uniform in the sonar's cone
+    sin_bearing: np.ndarray
+    distance: np.ndarray  # (m,) m from the transducer, within tolerance of the range
+    height: np.ndarray  # (m,) z, uniform between the ground and the cameras
+
+
+def arc_draws(
+    rng: np.random.Generator, reading: SonarReading, m: int, rig: StereoRig, tolerance: float
+) -> ArcDraws:
+    """``m`` candidates on fired sonars' range arcs (a fired sonar chosen uniformly, a bearing
+    uniform in its cone, a distance uniform within ``tolerance`` of the measured range)."""
+    fired = np.flatnonzero(reading.fired)
+    k = fired[rng.integers(0, len(fired), m)]
+    bearing = reading.mounts[k, 2] + rng.uniform(-reading.half_cone, reading.half_cone, m)
+    distance = reading.ranges[k] + rng.uniform(-tolerance, tolerance, m)
+    height = rng.uniform(0.0, rig.mount_height, m)
+    return ArcDraws(k, np.cos(bearing), np.sin(bearing), distance, height)
+
+
+def arc_immigrants_numpy(
+    draws: ArcDraws, reading: SonarReading, n: int, rig: StereoRig, margin: int
+) -> np.ndarray:
+    """Reference: the first ``n`` candidates of ``draws`` inside both images."""
+    mounts = reading.mounts[draws.sonar]
+    xyz = np.stack(
+        [
+            mounts[:, 0] + draws.distance * draws.cos_bearing,
+            mounts[:, 1] + draws.distance * draws.sin_bearing,
+            draws.height,
+        ],
+        axis=1,
+    )
+    u_left, u_right, v, depth = rig.project(xyz)
+    inside = (depth > 0) & (v >= margin) & (v <= rig.height - 1 - margin)
+    for u in (u_left, u_right):
+        inside &= (u >= margin) & (u <= rig.width - 1 - margin)
+    return xyz[inside][:n]
+
+
+def arc_immigrants_numba(
+    draws: ArcDraws, reading: SonarReading, n: int, rig: StereoRig, margin: int
+) -> np.ndarray:
+    """Same flies as :func:`arc_immigrants_numpy`, in one compiled pass that stops at ``n``."""
+    k = np.array(
+        [rig.focal_px, rig.cx, rig.cy, rig.baseline / 2.0, rig.mount_x, rig.mount_height,
+         margin, rig.width - 1 - margin, rig.height - 1 - margin],
+        dtype=np.float64,
+    )  # fmt: skip
+    out = np.empty((n, 3))
+    found = _arc_immigrants_kernel(
+        np.ascontiguousarray(reading.mounts, dtype=np.float64), draws.sonar, draws.cos_bearing,
+        draws.sin_bearing, draws.distance, draws.height, k, out,
+    )  # fmt: skip
+    return out[:found]
+
+
+@numba.njit(cache=True, nogil=True)
+def _arc_immigrants_kernel(
+    mounts, sonar, cos_b, sin_b, distance, height, k, out
+):  # pragma: no cover
+    """Fills ``out`` with the first candidates inside both images (``StereoRig.project``'s
+    arithmetic, in its order); returns how many."""
+    f, cx, cy, half_b, mount_x, mount_h = k[0], k[1], k[2], k[3], k[4], k[5]
+    lo, hi_u, hi_v = k[6], k[7], k[8]
+    found = 0
+    for j in range(sonar.shape[0]):
+        if found == out.shape[0]:
+            break
+        x = mounts[sonar[j], 0] + distance[j] * cos_b[j]
+        y = mounts[sonar[j], 1] + distance[j] * sin_b[j]
+        z = height[j]
+        depth = x - mount_x
+        if not depth > 0:
+            continue
+        safe = depth if depth > 1e-9 else 1e-9
+        u_left = cx - f * (y - half_b) / safe
+        u_right = cx - f * (y + half_b) / safe
+        v = cy - f * (z - mount_h) / safe
+        if lo <= v <= hi_v and lo <= u_left <= hi_u and lo <= u_right <= hi_u:
+            out[found, 0], out[found, 1], out[found, 2] = x, y, z
+            found += 1
+    return found
 
 
 def sonar_immigrants(
@@ -117,34 +225,18 @@ def sonar_immigrants(
     tolerance: float,
     margin: int,
     tries: int = 8,
+    use_numba: bool = False,
 ) -> np.ndarray:
     """Up to ``n`` flies on fired sonars' range arcs: a fired sonar chosen uniformly, a
     bearing uniform in its cone, a range uniform within ``tolerance`` of the measured one,
     a height uniform between the ground and the cameras; only candidates inside both images
     (``margin`` px in) are kept. At most ``tries``·n candidates are drawn, so this may return
     fewer than ``n`` (none if no sonar fired or no arc is in view)."""
-    fired = np.flatnonzero(reading.fired)
-    if n <= 0 or len(fired) == 0:
+    if n <= 0 or not reading.fired.any():
         return np.empty((0, 3))
-    m = tries * n
-    k = fired[rng.integers(0, len(fired), m)]
-    mounts = reading.mounts[k]
-    bearing = mounts[:, 2] + rng.uniform(-reading.half_cone, reading.half_cone, m)
-    rng_range = reading.ranges[k] + rng.uniform(-tolerance, tolerance, m)
-    height = rng.uniform(0.0, rig.mount_height, m)
-    xyz = np.stack(
-        [
-            mounts[:, 0] + rng_range * np.cos(bearing),
-            mounts[:, 1] + rng_range * np.sin(bearing),
-            height,
-        ],
-        axis=1,
-    )
-    u_left, u_right, v, depth = rig.project(xyz)
-    inside = (depth > 0) & (v >= margin) & (v <= rig.height - 1 - margin)
-    for u in (u_left, u_right):
-        inside &= (u >= margin) & (u <= rig.width - 1 - margin)
-    return xyz[inside][:n]
+    draws = arc_draws(rng, reading, tries * n, rig, tolerance)
+    build = arc_immigrants_numba if use_numba else arc_immigrants_numpy
+    return build(draws, reading, n, rig, margin)
 
 
 def moved_by_odometry(xyz: np.ndarray, increment: Pose2D) -> np.ndarray:

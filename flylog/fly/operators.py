@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from flylog.fly.sorting import median_numba, stable_argsort_numba
+from flylog.fly.sorting import median_in_place, smallest_stable_numba
 from flylog.geometry import StereoRig
 
 
@@ -31,7 +31,7 @@ def survivor_indices(shared_fitness: np.ndarray, keep: int) -> np.ndarray:
 @numba.njit(cache=True, nogil=True)
 def survivor_indices_numba(shared_fitness, keep):  # pragma: no cover - compiled
     """Same indices as :func:`survivor_indices`: the first ``keep`` of a stable sort."""
-    return stable_argsort_numba(-shared_fitness)[:keep].copy()
+    return smallest_stable_numba(-shared_fitness, keep)
 
 
 def neighbour_counts_numpy(
@@ -46,56 +46,130 @@ def neighbour_counts_numpy(
     return near.sum(axis=1).astype(np.int64)
 
 
+# The grid never has more than this many cells per valid fly (its cells grow instead), so its
+# buffer is O(N) whatever the spread of the points.
+_CELLS_PER_FLY = 4
+
+
+def grid_buffer_size(n: int) -> int:
+    """Cells' buffer length :func:`neighbour_counts_into` needs for ``n`` flies."""
+    return 3 * _CELLS_PER_FLY * n + 2
+
+
 @numba.njit(cache=True, nogil=True)
-def neighbour_counts_numba(u, v, valid, radius):  # pragma: no cover - compiled
-    """Same counts as :func:`neighbour_counts_numpy`, through a grid hash of cell size ≥ R:
-    flies are counting-sorted by cell, so the 3 cells of each neighbouring row are one
-    contiguous run of sorted coordinates."""
+def neighbour_counts_into(u, v, valid, radius, starts, order, uv, near, counts):  # pragma: no cover
+    """Same counts as :func:`neighbour_counts_numpy`, written into ``counts``, through a grid of
+    cells no smaller than R. Flies are counting-sorted by cell (row-major; ``starts`` at
+    least :func:`grid_buffer_size` long; ``order``, ``uv`` (N, 2), ``near`` at least N), so the
+    rest of a fly's cell and the cell on its right are one contiguous run of sorted flies, and
+    the 3 cells below it another; each pair is tested once, from its first fly."""
     n = u.shape[0]
-    counts = np.zeros(n, dtype=np.int64)
-    cell = max(radius, 1.0)
-    r2 = radius * radius
     umin, vmin, umax, vmax = np.inf, np.inf, -np.inf, -np.inf
+    n_valid = 0
     for i in range(n):
+        counts[i] = 0
         if valid[i]:
+            near[n_valid] = 0
+            n_valid += 1
             umin, umax = min(umin, u[i]), max(umax, u[i])
             vmin, vmax = min(vmin, v[i]), max(vmax, v[i])
-    if not umin <= umax:
+    if n_valid == 0:
+        return
+    # A hair above R: two points R apart can never land two cells apart through rounding.
+    cell = max(radius * (1.0 + 1e-6), 1.0)
+    limit = _CELLS_PER_FLY * n_valid
+    w, h = umax - umin, vmax - vmin
+    if (w / cell + 1.0) * (h / cell + 1.0) > limit:
+        # so that gw·gh ≤ area/cell² + (w + h)/cell + 1 ≤ 3·limit + 1
+        cell = max(cell, np.sqrt(w * h / limit), w / limit, h / limit)
+    inv = 1.0 / cell
+    gw = int(w * inv) + 1
+    gh = int(h * inv) + 1
+    n_cells = gw * gh
+    for c in range(n_cells + 2):
+        starts[c] = 0
+    for i in range(n):
+        if valid[i]:
+            c = int((v[i] - vmin) * inv) * gw + int((u[i] - umin) * inv)
+            starts[c + 2] += 1
+    total = 0
+    for c in range(2, n_cells + 2):
+        total += starts[c]  # a running sum in a register: no store-to-load chain
+        starts[c] = total
+    # scatter through starts[c + 1], which ends as the end of cell c (= the start of c + 1)
+    for i in range(n):
+        if valid[i]:
+            c = int((v[i] - vmin) * inv) * gw + int((u[i] - umin) * inv)
+            t = starts[c + 1]
+            uv[t, 0] = u[i]
+            uv[t, 1] = v[i]
+            order[t] = i
+            starts[c + 1] = t + 1
+    r2 = radius * radius
+    for row in range(gh):
+        for gu in range(gw):
+            c = row * gw + gu
+            if starts[c] == starts[c + 1]:
+                continue
+            right = starts[c + 2] if gu + 1 < gw else starts[c + 1]
+            below_lo = below_hi = 0
+            if row + 1 < gh:
+                below_lo = starts[c + gw - 1] if gu > 0 else starts[c + gw]
+                below_hi = starts[c + gw + 2] if gu + 1 < gw else starts[c + gw + 1]
+            for a in range(starts[c], starts[c + 1]):
+                ua, va = uv[a, 0], uv[a, 1]
+                total = 0
+                for b in range(a + 1, right):
+                    du = ua - uv[b, 0]
+                    dv = va - uv[b, 1]
+                    hit = du * du + dv * dv <= r2
+                    total += hit
+                    near[b] += hit
+                for b in range(below_lo, below_hi):
+                    du = ua - uv[b, 0]
+                    dv = va - uv[b, 1]
+                    hit = du * du + dv * dv <= r2
+                    total += hit
+                    near[b] += hit
+                near[a] += total
+    for t in range(n_valid):
+        counts[order[t]] = near[t]
+
+
+class NeighbourCounter:
+    """:func:`neighbour_counts_into` with buffers kept between calls (the engine counts
+    every generation; the grid's buffers are not reallocated each time)."""
+
+    def __init__(self) -> None:
+        self._n = -1
+        self._starts = np.empty(0, dtype=np.int64)
+        self._order = np.empty(0, dtype=np.int64)
+        self._uv = np.empty((0, 2))
+        self._near = np.empty(0, dtype=np.int64)
+
+    def __call__(
+        self, u: np.ndarray, v: np.ndarray, valid: np.ndarray, radius: float
+    ) -> np.ndarray:
+        """(N,) int64 neighbour counts (a new array)."""
+        n = len(u)
+        if n != self._n:
+            self._n = n
+            self._starts = np.empty(grid_buffer_size(n), dtype=np.int64)
+            self._order = np.empty(n, dtype=np.int64)
+            self._uv = np.empty((n, 2))
+            self._near = np.empty(n, dtype=np.int64)
+        counts = np.empty(n, dtype=np.int64)
+        neighbour_counts_into(
+            u, v, valid, float(radius), self._starts, self._order, self._uv, self._near, counts
+        )
         return counts
-    gw = int((umax - umin) / cell) + 1
-    gh = int((vmax - vmin) / cell) + 1
-    gu_of = np.empty(n, dtype=np.int64)
-    gv_of = np.empty(n, dtype=np.int64)
-    starts = np.zeros(gw * gh + 1, dtype=np.int64)
-    for i in range(n):
-        if valid[i]:
-            gu_of[i] = int((u[i] - umin) / cell)
-            gv_of[i] = int((v[i] - vmin) / cell)
-            starts[gv_of[i] * gw + gu_of[i] + 1] += 1
-    for c in range(gw * gh):
-        starts[c + 1] += starts[c]
-    fill = starts[:-1].copy()
-    su = np.empty(starts[-1])
-    sv = np.empty(starts[-1])
-    for i in range(n):
-        if valid[i]:
-            c = gv_of[i] * gw + gu_of[i]
-            su[fill[c]] = u[i]
-            sv[fill[c]] = v[i]
-            fill[c] += 1
-    for i in range(n):
-        if not valid[i]:
-            continue
-        lo_u, hi_u = max(gu_of[i] - 1, 0), min(gu_of[i] + 1, gw - 1)
-        total = -1  # the fly itself is in range
-        for gv in range(max(gv_of[i] - 1, 0), min(gv_of[i] + 2, gh)):
-            for t in range(starts[gv * gw + lo_u], starts[gv * gw + hi_u + 1]):
-                du = u[i] - su[t]
-                dv = v[i] - sv[t]
-                if du * du + dv * dv <= r2:
-                    total += 1
-        counts[i] = total
-    return counts
+
+
+def neighbour_counts_numba(
+    u: np.ndarray, v: np.ndarray, valid: np.ndarray, radius: float
+) -> np.ndarray:
+    """Same counts as :func:`neighbour_counts_numpy` (compiled grid, fresh buffers)."""
+    return NeighbourCounter()(u, v, valid, radius)
 
 
 def shared_fitness(fitness: np.ndarray, counts: np.ndarray, coefficient: float) -> np.ndarray:
@@ -111,13 +185,13 @@ def shared_fitness(fitness: np.ndarray, counts: np.ndarray, coefficient: float) 
 @numba.njit(cache=True, nogil=True)
 def shared_fitness_numba(fitness, counts, coefficient):  # pragma: no cover - compiled
     """Same values as :func:`shared_fitness`."""
-    positive = fitness > 0
     out = fitness.copy()
-    if not positive.any():
+    positive = fitness[fitness > 0]
+    if positive.shape[0] == 0:
         return out
-    step = coefficient * median_numba(fitness[positive])
+    step = coefficient * median_in_place(positive)
     for i in range(fitness.shape[0]):
-        if positive[i]:
+        if fitness[i] > 0:
             out[i] = fitness[i] - step * counts[i]
     return out
 
@@ -283,15 +357,18 @@ def children_numba(
     sigma_disparity_px: float,
     d_min: float,
     d_max: float,
+    out: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Same children as :func:`children_numpy`, in one compiled pass."""
+    """Same children as :func:`children_numpy`, in one compiled pass (into ``out`` if given,
+    a C-contiguous (n, 3) float64 array)."""
     fb = rig.focal_px * rig.baseline
     k = np.array(
         [rig.focal_px, rig.cx, rig.cy, rig.baseline / 2.0, rig.mount_x, rig.mount_height,
          fb / d_max, fb / d_min],
         dtype=np.float64,
     )  # fmt: skip
-    out = np.empty((len(draws.which), 3))
+    if out is None:
+        out = np.empty((len(draws.which), 3))
     _children_kernel(
         np.ascontiguousarray(parents, dtype=np.float64), draws.pick, draws.which, draws.noise,
         draws.lam, draws.weights, float(rate2), float(rate3), k,
@@ -313,13 +390,21 @@ def offspring(
     d_min: float,
     d_max: float,
     use_numba: bool = False,
+    out: np.ndarray | None = None,
 ) -> np.ndarray:
     """``n`` children of ``parents`` (M, 3): a share ``rate2`` by two-parent crossover,
     ``rate3`` by three-parent crossover, the rest by mutation of one parent. Parents are
-    drawn uniformly (with replacement) among the survivors."""
+    drawn uniformly (with replacement) among the survivors. Written into ``out`` (n, 3) when
+    given (C-contiguous float64 for the compiled path), which is returned."""
     draws = breeding_draws(rng, len(parents), n, rate2, rate3)
-    build = children_numba if use_numba else children_numpy
-    return build(
-        parents, draws, rig, rate2=rate2, rate3=rate3, sigma_px=sigma_px,
-        sigma_disparity_px=sigma_disparity_px, d_min=d_min, d_max=d_max,
+    options = dict(
+        rate2=rate2, rate3=rate3, sigma_px=sigma_px, sigma_disparity_px=sigma_disparity_px,
+        d_min=d_min, d_max=d_max,
     )  # fmt: skip
+    if use_numba:
+        return children_numba(parents, draws, rig, **options, out=out)
+    children = children_numpy(parents, draws, rig, **options)
+    if out is None:
+        return children
+    out[...] = children
+    return out

@@ -9,7 +9,7 @@ import numba
 import numpy as np
 
 from flylog.fly.fitness import INVALID_FITNESS
-from flylog.fly.sorting import median_numba
+from flylog.fly.sorting import median_in_place
 from flylog.geometry import StereoRig
 
 
@@ -77,6 +77,41 @@ class Population:
         out.age[k:] = 0
         return out
 
+    def survivors_into(self, keep: np.ndarray, out: Population) -> int:
+        """Compiled :meth:`survivors_then` without the newcomers' positions: the flies ``keep``
+        (one generation older) then fresh flies whose ``xyz`` the caller writes into
+        ``out.xyz[len(keep):]``. Returns ``len(keep)``."""
+        if len(out) != len(self) or out is self:
+            msg = "survivors_into needs another population of the same size"
+            raise ValueError(msg)
+        _survivors_kernel(
+            keep, self.xyz, self.fitness, self.vision, self.stale, self.stamp_ns, self.age,
+            out.xyz, out.fitness, out.vision, out.stale, out.stamp_ns, out.age,
+        )  # fmt: skip
+        return len(keep)
+
+
+@numba.njit(cache=True, nogil=True)
+def _survivors_kernel(keep, xyz, fitness, vision, stale, stamp, age, oxyz, ofit, ovis, ostale,
+                      ostamp, oage):  # fmt: skip  # pragma: no cover - compiled
+    """The survivor rows of :meth:`Population.survivors_then` in one pass, newcomers marked
+    fresh (their ``xyz`` is left to the caller)."""
+    k = keep.shape[0]
+    for t in range(k):
+        i = keep[t]
+        oxyz[t, 0], oxyz[t, 1], oxyz[t, 2] = xyz[i, 0], xyz[i, 1], xyz[i, 2]
+        ofit[t] = fitness[i]
+        ovis[t] = vision[i]
+        ostale[t] = stale[i]
+        ostamp[t] = stamp[i]
+        oage[t] = age[i] + 1
+    for t in range(k, ofit.shape[0]):
+        ofit[t] = INVALID_FITNESS
+        ovis[t] = INVALID_FITNESS
+        ostale[t] = True
+        ostamp[t] = -1
+        oage[t] = 0
+
 
 def fitness_summary_numpy(fitness: np.ndarray) -> tuple[float, int, float]:
     """(best, number valid, median of the valid) fitness; the median is INVALID_FITNESS
@@ -90,7 +125,7 @@ def fitness_summary_numpy(fitness: np.ndarray) -> tuple[float, int, float]:
 def fitness_summary_numba(fitness):  # pragma: no cover - compiled
     """Same as :func:`fitness_summary_numpy`."""
     valid = fitness[fitness > INVALID_FITNESS]
-    median = median_numba(valid) if valid.shape[0] else INVALID_FITNESS
+    median = median_in_place(valid) if valid.shape[0] else INVALID_FITNESS
     return fitness.max(), valid.shape[0], median
 
 

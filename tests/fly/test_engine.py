@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 
 from flylog.errors import FlylogError
-from flylog.fly import Backend, EngineConfig, FlyEngine, obstacle_points
+from flylog.fly import Backend, EngineConfig, FlyEngine, obstacle_mask, obstacle_points
 from flylog.fly.fitness import INVALID_FITNESS
+from flylog.fly.fusion import sonar_fused
 from flylog.geometry import Pose2D, StereoRig, relative
 from flylog.sensors import SonarConfig, StereoPair
 from tests.fly.analytic import on_surface_share, render, room, sonar_reading
@@ -260,3 +261,48 @@ def test_invalid_flies_never_become_obstacles(small_frame):
     pop = engine.population.copy()
     pop.fitness[:] = INVALID_FITNESS
     assert len(obstacle_points(pop, min_fitness=-10.0, ground_margin=-1.0)) == 0
+
+
+@pytest.mark.parametrize("backend", list(Backend))
+def test_fitness_is_fused_with_the_newest_reading(sonar_scene, backend):
+    # The engine re-fuses only the flies it re-evaluates, unless the reading changes: the
+    # result must equal fusing every fly with the newest reading.
+    pair, reading = sonar_scene
+    cfg = EngineConfig(flies=1000, backend=backend)
+    engine, _ = run(cfg, (pair,), sonar=reading, generations=3)
+
+    def check(r):
+        pop = engine.population
+        expected = sonar_fused(
+            pop.vision, pop.xyz, r, bonus=cfg.sonar_bonus, tolerance=cfg.sonar_tolerance,
+            use_numba=False,
+        )  # fmt: skip
+        np.testing.assert_array_equal(pop.fitness, expected)
+        return int((pop.fitness != pop.vision).sum())
+
+    assert check(reading) > 0
+    nearer = dataclasses.replace(reading, ranges=reading.ranges - 0.3)
+    engine.set_sonar(nearer)
+    engine.step()
+    check(nearer)
+    silent = dataclasses.replace(reading, ranges=np.full_like(reading.ranges, np.nan))
+    engine.set_sonar(silent)
+    engine.step()
+    assert check(silent) == 0
+
+
+def test_obstacle_mask_equals_obstacle_points(small_frame):
+    engine, _ = run(EngineConfig(flies=1000), small_frame, generations=5)
+    pop = engine.population
+    for kwargs in (dict(quantile=0.3), dict(quantile=0.0), dict(min_fitness=0.0)):
+        mask = obstacle_mask(pop.xyz, pop.fitness, ground_margin=0.1, **kwargs)
+        assert mask.dtype == bool and mask.shape == (1000,) and 0 < mask.sum() < 1000
+        np.testing.assert_array_equal(
+            pop.xyz[mask], obstacle_points(pop, ground_margin=0.1, **kwargs)
+        )
+    invalid = np.full(1000, INVALID_FITNESS)
+    assert not obstacle_mask(pop.xyz, invalid, quantile=0.5).any()
+    with pytest.raises(ValueError, match=r"quantile must be in \[0, 1\), got 1.0"):
+        obstacle_mask(pop.xyz, pop.fitness, quantile=1.0)
+    with pytest.raises(ValueError, match=r"xyz must be \(1000, 3\)"):
+        obstacle_mask(pop.xyz[:10], pop.fitness, quantile=0.5)

@@ -6,11 +6,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from flylog.fly.fusion import (
-    _fired_sonars,
+    arc_draws,
+    arc_immigrants_numba,
+    arc_immigrants_numpy,
+    fired_sonars,
     moved_by_odometry,
     sonar_confirmations,
     sonar_confirmations_numba,
     sonar_confirmations_numpy,
+    sonar_fuse_into,
     sonar_fused,
     sonar_fused_numba,
     sonar_immigrants,
@@ -56,7 +60,7 @@ def test_confirmation_kernel_equals_reference(seed):
     rng = np.random.default_rng(seed)
     ranges = np.where(rng.random(6) < 0.6, rng.uniform(0.2, 3.0, 6), np.nan)
     xyz = np.column_stack([rng.uniform(-1, 3.5, 500), rng.uniform(-3, 3, 500), rng.random(500)])
-    sonars = _fired_sonars(reading(ranges))
+    sonars = fired_sonars(reading(ranges))
     cos_half = math.cos(math.radians(7.5))
     np.testing.assert_array_equal(
         sonar_confirmations_numba(xyz, sonars, cos_half, 0.15),
@@ -86,7 +90,7 @@ def test_fused_kernel_equals_reference(seed, bonus):
     vision = np.where(rng.random(400) < 0.2, -1.0, rng.exponential(size=400))
     r = reading(ranges)
     expected = sonar_fused(vision, xyz, r, bonus=bonus, tolerance=0.3, use_numba=False)
-    sonars = _fired_sonars(r)
+    sonars = fired_sonars(r)
     got = sonar_fused_numba(vision, xyz, sonars, math.cos(r.half_cone), 0.3, bonus)
     np.testing.assert_array_equal(got, expected)
 
@@ -132,3 +136,37 @@ def test_proprioception_moves_flies_by_inverse_motion():
 def test_forward_motion_brings_flies_closer():
     got = moved_by_odometry(np.array([[3.0, 0.5, 0.2]]), Pose2D(1.0, 0.0, 0.0))
     assert got[0] == pytest.approx([2.0, 0.5, 0.2])
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 120))
+def test_arc_immigrant_kernel_equals_reference(seed, n):
+    rng = np.random.default_rng(seed)
+    ranges = np.where(rng.random(6) < 0.7, rng.uniform(0.3, 3.0, 6), np.nan)
+    ranges[rng.integers(0, 6)] = rng.uniform(0.3, 3.0)  # at least one fired
+    r = reading(ranges)
+    draws = arc_draws(rng, r, 8 * n, RIG, 0.1)
+    expected = arc_immigrants_numpy(draws, r, n, RIG, 3)
+    np.testing.assert_array_equal(arc_immigrants_numba(draws, r, n, RIG, 3), expected)
+    a = sonar_immigrants(np.random.default_rng(seed), r, n, RIG, tolerance=0.1, margin=3)
+    b = sonar_immigrants(
+        np.random.default_rng(seed), r, n, RIG, tolerance=0.1, margin=3, use_numba=True
+    )
+    np.testing.assert_array_equal(a, b)
+
+
+def test_fuse_into_writes_only_the_given_flies():
+    rng = np.random.default_rng(3)
+    ranges = [np.nan, 0.8, 1.0, 1.2, np.nan, np.nan]
+    xyz = np.column_stack([rng.uniform(0, 1.5, 300), rng.uniform(-1, 1, 300), rng.random(300)])
+    vision = np.where(rng.random(300) < 0.2, -1.0, rng.exponential(size=300))
+    r = reading(ranges)
+    expected = sonar_fused(vision, xyz, r, bonus=0.5, tolerance=0.3, use_numba=False)
+    assert (expected != vision).sum() > 10  # some flies confirmed: the test can fail
+    index = np.flatnonzero(rng.random(300) < 0.5)
+    out = np.full(300, 7.0)
+    sonar_fuse_into(vision, xyz, fired_sonars(r), math.cos(r.half_cone), 0.3, 0.5, index, out)
+    np.testing.assert_array_equal(out[index], expected[index])
+    untouched = np.ones(300, dtype=bool)
+    untouched[index] = False
+    assert (out[untouched] == 7.0).all()

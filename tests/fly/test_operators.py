@@ -6,11 +6,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from flylog.fly.operators import (
+    NeighbourCounter,
     breeding_draws,
     children_numba,
     children_numpy,
     crossover2,
     crossover3,
+    grid_buffer_size,
     mutated,
     neighbour_counts_numba,
     neighbour_counts_numpy,
@@ -204,3 +206,43 @@ def test_offspring_same_seed_same_children_for_both_implementations():
     np.testing.assert_array_equal(a, b)
     c = offspring(np.random.default_rng(8), parents, 500, RIG, **options, use_numba=True)
     assert not np.array_equal(a, c)
+
+
+def test_neighbour_counter_reuses_its_buffers_across_sizes_and_radii():
+    rng = np.random.default_rng(9)
+    count = NeighbourCounter()
+    for n, radius in ((300, 3.0), (300, 0.0), (50, 12.0), (300, 3.0), (1, 2.0)):
+        u, v = rng.uniform(0, 80, n), rng.uniform(0, 60, n)
+        valid = rng.random(n) < 0.9
+        np.testing.assert_array_equal(
+            count(u, v, valid, radius), neighbour_counts_numpy(u, v, valid, radius)
+        )
+
+
+def test_grid_stays_small_for_far_spread_points():
+    # Two tight clusters 1e7 px apart with R = 1: a grid of R-cells would have 1e14 cells.
+    rng = np.random.default_rng(10)
+    u = np.concatenate([rng.normal(0, 2, 200), rng.normal(1e7, 2, 200)])
+    v = np.concatenate([rng.normal(0, 2, 200), rng.normal(1e7, 2, 200)])
+    valid = np.ones(400, dtype=bool)
+    assert grid_buffer_size(400) < 10_000
+    np.testing.assert_array_equal(
+        neighbour_counts_numba(u, v, valid, 1.0), neighbour_counts_numpy(u, v, valid, 1.0)
+    )
+    assert (neighbour_counts_numba(u, v, ~valid, 1.0) == 0).all()
+
+
+@pytest.mark.parametrize("use_numba", [False, True])
+def test_offspring_written_into_out(use_numba):
+    parents = random_flies(np.random.default_rng(6), RIG, 100, d_min=0.5, d_max=20.0, margin=3)
+    options = dict(
+        rate2=0.2, rate3=0.2, sigma_px=3.0, sigma_disparity_px=1.0, d_min=0.5, d_max=20.0
+    )
+    expected = offspring(np.random.default_rng(7), parents, 50, RIG, **options)
+    out = np.zeros((60, 3))
+    got = offspring(
+        np.random.default_rng(7), parents, 50, RIG, **options, use_numba=use_numba,
+        out=out[5:55],
+    )  # fmt: skip
+    np.testing.assert_array_equal(out[5:55], expected)
+    assert np.shares_memory(got, out) and (out[:5] == 0).all() and (out[55:] == 0).all()

@@ -55,3 +55,18 @@ def test_fitness_summary_kernel_equals_reference(seed, n):
     rng = np.random.default_rng(seed)
     fitness = np.where(rng.random(n) < 0.3, INVALID_FITNESS, rng.exponential(size=n))
     assert fitness_summary_numba(fitness) == fitness_summary_numpy(fitness)
+
+
+def test_survivors_into_equals_survivors_then():
+    rng = np.random.default_rng(1)
+    pop = _population(rng, 50)
+    keep = rng.permutation(50)[:20]
+    newcomers = rng.normal(size=(30, 3))
+    expected = pop.survivors_then(keep, newcomers)
+    out = _population(rng, 50)
+    assert pop.survivors_into(keep, out) == 20
+    out.xyz[20:] = newcomers
+    for field in ("xyz", "fitness", "vision", "stale", "stamp_ns", "age"):
+        np.testing.assert_array_equal(getattr(out, field), getattr(expected, field), field)
+    with pytest.raises(ValueError, match="same size"):
+        pop.survivors_into(keep, pop)

@@ -24,3 +24,21 @@ def test_kernels_equal_numpy(seed, n, decimals):
     flat = np.full(n, 7.0)
     flat[rng.integers(0, n)] = 1.0
     np.testing.assert_array_equal(stable_argsort_numba(flat), np.argsort(flat, kind="stable"))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 500), st.floats(0.0, 1.0))
+def test_selection_kernels_equal_numpy(seed, n, share):
+    from flylog.fly.sorting import select_in_place, smallest_stable_numba
+
+    rng = np.random.default_rng(seed)
+    values = np.round(rng.normal(size=n), 1)  # many ties, also at the cut
+    k = min(n - 1, int(share * n))
+    work = values.copy()
+    assert select_in_place(work, k) == np.sort(values)[k]
+    assert (work[:k] <= work[k]).all() and (work[k + 1 :] >= work[k]).all()
+    np.testing.assert_array_equal(np.sort(work), np.sort(values))  # only reordered
+    for keep in (0, k, k + 1, n, n + 3):
+        np.testing.assert_array_equal(
+            smallest_stable_numba(values, keep), np.argsort(values, kind="stable")[:keep]
+        )
