@@ -11,7 +11,7 @@ Usable as a library without any log::
 from flylog.fly.config import Backend, EngineConfig
 from flylog.fly.engine import FlyEngine, GenerationStats
 from flylog.fly.fitness import INVALID_FITNESS, fitness_numba, fitness_numpy
-from flylog.fly.obstacles import obstacle_mask, obstacle_points
+from flylog.fly.obstacles import ObstacleFlies, obstacle_mask, obstacle_points
 from flylog.fly.population import Population, random_flies, sharing_radius
 
 __all__ = [
@@ -20,6 +20,7 @@ __all__ = [
     "EngineConfig",
     "FlyEngine",
     "GenerationStats",
+    "ObstacleFlies",
     "Population",
     "fitness_numba",
     "fitness_numpy",

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
+from flylog.config import param
 from flylog.fly.engine import FlyEngine
 from flylog.fly.population import Population
 
@@ -15,10 +18,12 @@ def obstacle_mask(
     min_fitness: float | None = None,
     quantile: float | None = None,
     ground_margin: float = 0.05,
+    age: np.ndarray | None = None,
+    min_age: int = 0,
 ) -> np.ndarray:
     """(N,) bool: the flies taken for obstacles, from the arrays a population (or a ``/flies``
-    point cloud) holds: valid (fitness > 0), fitness above a threshold, and z above the
-    ground by more than ``ground_margin`` m.
+    point cloud) holds: valid (fitness > 0), fitness above a threshold, z above the ground
+    by more than ``ground_margin`` m and, given ``age``, at least ``min_age`` generations old.
 
     Give exactly one threshold: ``min_fitness`` (absolute, in fitness units, which depend on
     the images' contrast) or ``quantile`` in [0, 1) of the positive fitnesses (scale-free:
@@ -42,7 +47,36 @@ def obstacle_mask(
         threshold = float(np.quantile(fitness[positive], quantile))
     else:
         threshold = float(min_fitness)  # type: ignore[arg-type]
-    return positive & (fitness > threshold) & (xyz[:, 2] > ground_margin)
+    keep = positive & (fitness > threshold) & (xyz[:, 2] > ground_margin)
+    if age is not None and min_age > 0:
+        keep &= np.asarray(age) >= min_age
+    return keep
+
+
+@dataclass(frozen=True)
+class ObstacleFlies:
+    """Which flies count as obstacles: for the planner, and for the metrics of a run."""
+
+    quantile: float = param(
+        0.5, help="keep flies above this quantile of the positive fitnesses", min=0.0, max=0.99
+    )
+    ground_margin: float = param(
+        0.05, help="and at least this high above the ground", unit="m", min=0.0
+    )
+    min_age: int = param(
+        3,
+        help="and survivors of at least this many selections: a fly that has not yet been "
+        "through selection is a random guess, not evidence (this keeps the planner from "
+        "reacting to a population that has not converged yet)",
+        unit="generations",
+        min=0,
+    )
+
+    def mask(self, xyz: np.ndarray, fitness: np.ndarray, age: np.ndarray | None) -> np.ndarray:
+        return obstacle_mask(
+            xyz, fitness, quantile=self.quantile, ground_margin=self.ground_margin,
+            age=age, min_age=self.min_age,
+        )  # fmt: skip
 
 
 def obstacle_points(
@@ -51,11 +85,12 @@ def obstacle_points(
     min_fitness: float | None = None,
     quantile: float | None = None,
     ground_margin: float = 0.05,
+    min_age: int = 0,
 ) -> np.ndarray:
     """(M, 3) positions (base_link) of the flies :func:`obstacle_mask` keeps."""
     pop = source.population if isinstance(source, FlyEngine) else source
     keep = obstacle_mask(
         pop.xyz, pop.fitness, min_fitness=min_fitness, quantile=quantile,
-        ground_margin=ground_margin,
+        ground_margin=ground_margin, age=pop.age, min_age=min_age,
     )  # fmt: skip
     return pop.xyz[keep].copy()

@@ -128,7 +128,8 @@ def fly_cloud(msg: Any) -> FlyCloud:
         fitness = _field_view(data, count, stride, fields["fitness"])
     else:
         fitness = np.full(count, np.nan, dtype=np.float32)
-    return FlyCloud(xyz, fitness)
+    age = _field_view(data, count, stride, fields["age"]) if "age" in fields else None
+    return FlyCloud(xyz, fitness, age)
 
 
 def overlay(msg: Any) -> Overlay:

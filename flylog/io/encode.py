@@ -182,23 +182,31 @@ def command(
 
 
 def point_cloud(
-    xyz: np.ndarray, fitness: np.ndarray, stamp_ns: int, frame_id: str
+    xyz: np.ndarray,
+    fitness: np.ndarray,
+    stamp_ns: int,
+    frame_id: str,
+    age: np.ndarray | None = None,
 ) -> fm.PointCloud:
-    """Packed little-endian float32 fields x, y, z, fitness (16 bytes a point)."""
+    """Packed little-endian float32 fields x, y, z, fitness and, given, age (generations
+    survived): 16 or 20 bytes a point."""
     xyz = np.asarray(xyz)
     fitness = np.asarray(fitness)
     if xyz.ndim != 2 or xyz.shape[1] != 3 or fitness.shape != (xyz.shape[0],):
         msg = f"point_cloud needs xyz (N, 3) and fitness (N,), got {xyz.shape} and {fitness.shape}"
         raise ValueError(msg)
-    packed = np.empty((xyz.shape[0], 4), dtype="<f4")
-    packed[:, :3] = xyz
-    packed[:, 3] = fitness
-    names = ("x", "y", "z", "fitness")
+    names: tuple[str, ...] = ("x", "y", "z", "fitness")
+    columns = [xyz, fitness[:, None]]
+    if age is not None:
+        names += ("age",)
+        columns.append(np.asarray(age).reshape(-1, 1))
+    packed = np.empty((xyz.shape[0], len(names)), dtype="<f4")
+    packed[:] = np.concatenate(columns, axis=1)
     return fm.PointCloud(
         timestamp=timestamp(stamp_ns),
         frame_id=frame_id,
         pose=_pose(0.0, 0.0, 0.0, (0.0, 0.0, 0.0, 1.0)),
-        point_stride=16,
+        point_stride=4 * len(names),
         fields=[
             fm.PackedElementField(name=name, offset=4 * i, type=_F32)
             for i, name in enumerate(names)

@@ -52,10 +52,11 @@ class Calibration(NamedTuple):
 
 
 class FlyCloud(NamedTuple):
-    """A decoded PointCloud: xyz (N, 3) and fitness (N,), float32."""
+    """A decoded PointCloud: xyz (N, 3), fitness (N,) and, if the cloud has it, age (N,)."""
 
     xyz: np.ndarray
     fitness: np.ndarray
+    age: np.ndarray | None = None
 
 
 class Overlay(NamedTuple):

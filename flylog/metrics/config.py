@@ -36,19 +36,6 @@ class MetricsConfig:
     goal_tolerance: float = param(
         0.2, help="the goal is reached within this distance of it", unit="m", min=0.0
     )
-    fly_quantile: float = param(
-        0.5,
-        help="obstacle flies: fitness above this quantile of the positive fitnesses "
-        "(used only when the run does not record its own rule)",
-        min=0.0,
-        max=0.999,
-    )
-    fly_ground_margin: float = param(
-        0.05,
-        help="obstacle flies: at least this high above the ground "
-        "(used only when the run does not record its own rule)",
-        unit="m",
-    )
     max_time_gap: float = param(
         0.1,
         help="a snapshot farther than this from the true trajectory's ends is an error",

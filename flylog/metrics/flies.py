@@ -2,9 +2,9 @@
 
 Definitions (``MetricsConfig`` holds every threshold):
 
-- *Obstacle flies* are the flies the planner takes for obstacles, with the rule of
-  ``flylog.fly.obstacles.obstacle_points``: fitness > 0, fitness above the ``quantile`` of
-  the positive fitnesses, and z > ``ground_margin`` (:func:`obstacle_fly_mask`).
+- *Obstacle flies* are the flies the planner takes for obstacles: the run's own
+  ``flylog.fly.obstacles.ObstacleFlies`` rule (fitness above a quantile of the positive
+  fitnesses, z above a ground margin, at least a minimum age), stored in its metadata.
 - A fly is *in view* if it lies in front of the left camera and its rounded left
   projection falls inside the image. Only flies in view can be checked against the
   rendered truth; the others are counted apart (``outside_view``).
@@ -31,19 +31,6 @@ import numpy as np
 
 from flylog.geometry import StereoRig
 from flylog.metrics.config import MetricsConfig
-
-
-def obstacle_fly_mask(
-    xyz: np.ndarray, fitness: np.ndarray, *, quantile: float, ground_margin: float
-) -> np.ndarray:
-    """(N,) bool: the flies ``flylog.fly.obstacles.obstacle_points(quantile=…)`` keeps,
-    from the arrays a ``/flies`` point cloud holds."""
-    fitness = np.asarray(fitness)
-    positive = fitness > 0
-    if not positive.any():
-        return np.zeros(len(fitness), dtype=bool)
-    threshold = float(np.quantile(fitness[positive], quantile))
-    return positive & (fitness > threshold) & (np.asarray(xyz)[:, 2] > ground_margin)
 
 
 class FlyScore(NamedTuple):

@@ -23,14 +23,15 @@ from typing import Any
 
 import numpy as np
 
-from flylog.config import to_mapping
+from flylog.config import from_mapping, to_mapping
 from flylog.errors import LogError
+from flylog.fly.obstacles import ObstacleFlies
 from flylog.geometry import Pose2D
 from flylog.io import contract, open_log
 from flylog.io.reader import LogReader
 from flylog.metrics import tables
 from flylog.metrics.config import MetricsConfig
-from flylog.metrics.flies import f_score, obstacle_fly_mask, ratio, score_flies
+from flylog.metrics.flies import f_score, ratio, score_flies
 from flylog.metrics.obstacles import detect_obstacles
 from flylog.metrics.trajectory import (
     associate,
@@ -53,8 +54,7 @@ _MAX_MATCH_NS = 20_000_000
 class RunFacts:
     """What a run file says about itself (its ``flylog.replay`` metadata)."""
 
-    quantile: float
-    ground_margin: float
+    rule: ObstacleFlies
     generations: int | None = None
     evaluations: int | None = None
     wall_seconds: float | None = None
@@ -71,19 +71,6 @@ class MetricsResult:
     config: MetricsConfig
 
 
-def _find_rule(config: Any) -> dict[str, Any] | None:
-    """The ``{"quantile", "ground_margin"}`` table anywhere in a replay configuration."""
-    if isinstance(config, dict):
-        rule = config.get("obstacles")
-        if isinstance(rule, dict) and "quantile" in rule:
-            return rule
-        for value in config.values():
-            found = _find_rule(value)
-            if found is not None:
-                return found
-    return None
-
-
 def _number(meta: dict[str, str], key: str, kind: type) -> Any:
     if key not in meta:
         return None
@@ -94,18 +81,19 @@ def _number(meta: dict[str, str], key: str, kind: type) -> Any:
 
 
 def run_facts(reader: LogReader, config: MetricsConfig) -> RunFacts:
-    """The obstacle rule and run statistics of a run file; the config's rule if absent."""
+    """The obstacle rule and run statistics of a run file (the default rule if it has none)."""
     meta = reader.metadata().get(contract.REPLAY_METADATA, {})
-    rule: dict[str, Any] = {}
+    rule = ObstacleFlies()
     if "config" in meta:
         try:
-            rule = _find_rule(json.loads(meta["config"])) or {}
+            table = json.loads(meta["config"]).get("obstacles", {})
         except json.JSONDecodeError as exc:
             msg = f"{reader.path}: metadata {contract.REPLAY_METADATA}.config is not JSON ({exc})"
             raise LogError(msg) from None
+        source = f"{reader.path}: metadata {contract.REPLAY_METADATA}.config"
+        rule = from_mapping(ObstacleFlies, table, source=source, prefix="obstacles")
     return RunFacts(
-        quantile=float(rule.get("quantile", config.fly_quantile)),
-        ground_margin=float(rule.get("ground_margin", config.fly_ground_margin)),
+        rule=rule,
         generations=_number(meta, "generations", int),
         evaluations=_number(meta, "evaluations", int),
         wall_seconds=_number(meta, "wall_seconds", float),
@@ -217,9 +205,7 @@ def score_run(
         cloud = m.value
         pose = interpolate_poses(true, np.array([t]))[0]
         depth, ids = renderer.render_depth(Pose2D(*pose))
-        keep = obstacle_fly_mask(
-            cloud.xyz, cloud.fitness, quantile=facts.quantile, ground_margin=facts.ground_margin
-        )
+        keep = facts.rule.mask(cloud.xyz, cloud.fitness, cloud.age)
         score = score_flies(
             cloud.xyz[keep], depth, ids, truth.rig, n_obstacles, config, flies=len(cloud.xyz)
         )

@@ -8,20 +8,9 @@ from pathlib import Path
 
 from flylog.config import from_mapping, param, read_toml
 from flylog.fly.config import EngineConfig
+from flylog.fly.obstacles import ObstacleFlies
 from flylog.planner.config import PlannerConfig
 from flylog.replay.clock import Mode
-
-
-@dataclass(frozen=True)
-class ObstacleFlies:
-    """Which flies count as obstacles (for the planner and for metrics)."""
-
-    quantile: float = param(
-        0.5, help="keep flies above this quantile of the positive fitnesses", min=0.0, max=0.99
-    )
-    ground_margin: float = param(
-        0.05, help="and at least this high above the ground", unit="m", min=0.0
-    )
 
 
 @dataclass(frozen=True)

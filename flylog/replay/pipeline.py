@@ -14,7 +14,6 @@ from typing import Any
 import numpy as np
 
 from flylog.fly.engine import FlyEngine, GenerationStats
-from flylog.fly.obstacles import obstacle_points
 from flylog.fly.population import Population
 from flylog.geometry import Pose2D, StereoRig, relative, transform_points_2d
 from flylog.io import contract, encode
@@ -109,12 +108,10 @@ class FlyPipeline:
 
     def obstacle_flies(self) -> np.ndarray:
         """(M, 3) obstacle flies of the published population, in base_link at its pose."""
-        if self._published is None:
+        pop = self._published
+        if pop is None:
             return np.empty((0, 3))
-        rule = self.config.obstacles
-        return obstacle_points(
-            self._published, quantile=rule.quantile, ground_margin=rule.ground_margin
-        )
+        return pop.xyz[self.config.obstacles.mask(pop.xyz, pop.fitness, pop.age)]
 
     def _planner_tick(self, t_ns: int) -> None:
         obstacles = self.obstacle_flies()
@@ -166,7 +163,7 @@ class FlyPipeline:
             self._write(
                 contract.FLIES,
                 t_ns,
-                encode.point_cloud(pop.xyz, pop.fitness, t_ns, contract.BASE_FRAME),
+                encode.point_cloud(pop.xyz, pop.fitness, t_ns, contract.BASE_FRAME, pop.age),
             )
             uv, colours = self._overlay(pop)
             self._write(contract.FLIES_OVERLAY, t_ns, encode.image_annotations(uv, colours, t_ns))

@@ -1,15 +1,12 @@
 import numpy as np
 import pytest
 
-from flylog.fly.obstacles import obstacle_points
-from flylog.fly.population import Population
 from flylog.geometry import StereoRig
 from flylog.metrics.config import MetricsConfig
 from flylog.metrics.flies import (
     cell_counts,
     f_score,
     nearest_visible_distance,
-    obstacle_fly_mask,
     score_flies,
 )
 
@@ -27,19 +24,6 @@ def view_with_wall(distance: float = 4.0, left_columns: int = 20):
 
 def flies_at(u, v, depth) -> np.ndarray:
     return RIG.backproject(np.asarray(u, float), np.asarray(v, float), np.asarray(depth, float))
-
-
-def test_mask_matches_obstacle_points_of_the_engine():
-    rng = np.random.default_rng(5)
-    xyz = rng.uniform(-1, 1, (500, 3))
-    fitness = rng.uniform(-0.5, 2.0, 500)
-    pop = Population.fresh(xyz)
-    pop.fitness[:] = fitness
-    for quantile, margin in ((0.5, 0.05), (0.2, -1.0), (0.9, 0.3)):
-        expected = obstacle_points(pop, quantile=quantile, ground_margin=margin)
-        mask = obstacle_fly_mask(xyz, fitness, quantile=quantile, ground_margin=margin)
-        np.testing.assert_array_equal(xyz[mask], expected)
-    assert not obstacle_fly_mask(xyz, -fitness - 3, quantile=0.5, ground_margin=0.0).any()
 
 
 def test_cell_counts_include_partial_cells():
