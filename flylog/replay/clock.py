@@ -7,7 +7,8 @@ time. Replay models that on a virtual clock, so a run is deterministic whatever 
 - A sensor record becomes *available* at its log time (``--sync``: an image only once its whole
   capture cycle has ended, one frame period after its stamp).
 - ``ASYNC``: generations run back to back. A generation starting at ``t`` first receives every
-  record available at ``t``, then costs ``evaluations / evals_per_second`` of virtual time.
+  record available at ``t``, then costs the virtual time the pipeline reports for it (for
+  the fly engine: its fitness evaluations / ``evals_per_second``).
 - ``PER_FRAME``: exactly N generations per stereo pair, starting when the pair is available (the
   paper's experiments); they still cost virtual time, and frames queue if the engine lags.
 - ``SYNC`` (conventional pipeline): the engine processes complete frames only, N generations each,
@@ -38,8 +39,9 @@ class Pipeline(Protocol):
     def deliver(self, record: object) -> None:
         """A sensor record became available (stereo pair, sonar reading, odometry)."""
 
-    def generation(self) -> int:
-        """Run one generation on the newest data; return the fitness evaluations it made."""
+    def generation(self) -> tuple[int, int]:
+        """Run one generation on the newest data; return the fitness evaluations it made
+        and the virtual time it costs (ns, at least 1)."""
 
     def publish(self, t_ns: int) -> None:
         """The population computed so far becomes what ticks see (at virtual time t_ns)."""
@@ -51,7 +53,6 @@ class Pipeline(Protocol):
 @dataclass(frozen=True)
 class ClockConfig:
     mode: Mode
-    evals_per_second: float
     generations_per_frame: int
     frame_period_ns: int
     tick_periods_ns: dict[str, int]
@@ -75,9 +76,6 @@ class VirtualClock:
     """
 
     def __init__(self, pipeline: Pipeline, config: ClockConfig) -> None:
-        if config.evals_per_second <= 0:
-            msg = "evals_per_second must be positive"
-            raise ValueError(msg)
         self.pipeline = pipeline
         self.config = config
         self.stats = ClockStats()
@@ -126,8 +124,8 @@ class VirtualClock:
                 stats.now_ns = nxt
                 continue
             for _ in range(runs):
-                evals = self.pipeline.generation()
-                cost = max(1, round(evals * 1e9 / cfg.evals_per_second))
+                evals, cost = self.pipeline.generation()
+                cost = max(1, cost)
                 # Ticks due while this generation runs see what was published before it.
                 self._fire_ticks_until(stats.now_ns + cost - 1)
                 stats.now_ns += cost

@@ -83,10 +83,11 @@ class FlyPipeline:
             msg = f"the pipeline cannot use a {type(record).__name__}"
             raise TypeError(msg)
 
-    def generation(self) -> int:
+    def generation(self) -> tuple[int, int]:
         self._last_stats = self.engine.step()
-        self._evaluations += self._last_stats.evaluations
-        return self._last_stats.evaluations
+        evals = self._last_stats.evaluations
+        self._evaluations += evals
+        return evals, round(evals * 1e9 / self.config.evals_per_second)
 
     def publish(self, t_ns: int) -> None:
         assert self._last_stats is not None

@@ -66,7 +66,6 @@ def table_path(output: Path) -> Path:
 def clock_config(config: ReplayConfig, frame_period_ns: int) -> ClockConfig:
     return ClockConfig(
         mode=config.mode,
-        evals_per_second=config.evals_per_second,
         generations_per_frame=config.generations_per_cycle,
         frame_period_ns=frame_period_ns,
         tick_periods_ns={
