@@ -24,7 +24,7 @@ import numpy as np
 from flylog.geometry import Pose2D, StereoRig
 from flylog.scene.footprints import DISC, Footprints, ray_hit, ray_hits_numpy
 from flylog.scene.load import Scene
-from flylog.sim.textures import texture_column, texture_value_numpy
+from flylog.sim.textures import texture_column, texture_value_numpy, value_noise_1d_numpy
 
 GROUND = -1
 SKY = -2
@@ -34,7 +34,7 @@ _BLOCK = 16
 # views. The incidence is taken from the image row only (the same in both cameras) so that
 # the texture's fading, and hence the colour of a surface point, is the same in both images;
 # vertical faces use the depth alone for the same reason.
-# Texture seeds: 0 ground, 1 sky, 2 + 2k (+1 for the top) obstacle k.
+# Texture seeds: 0 ground, 1 and 2 sky (azimuth, elevation), 2 + 2k (+1 top) obstacle k.
 SKY_SEED = 1
 _MIN_INCIDENCE_COS = 0.05
 
@@ -88,6 +88,19 @@ def _camera_rays(rig: StereoRig, pose: Pose2D, side: str) -> tuple[float, float,
     return ox, oy, np.stack([c - s * lateral, s + c * lateral], axis=1)
 
 
+def sky_pattern(rig: StereoRig, dirs: np.ndarray, feature: float) -> tuple[np.ndarray, np.ndarray]:
+    """The sky's 1-D patterns: (cams, W) along the azimuth of each column's world direction
+    ``dirs`` (cams, W, 2), and (H,) along the elevation of each row; in [0, 1). Rectified
+    cameras have parallel rays in the same column, so both see the same sky: zero disparity.
+    """
+    azimuth = np.arctan2(dirs[..., 1], dirs[..., 0])
+    elevation = np.arctan(-(np.arange(rig.height) - rig.cy) / rig.focal_px)
+    return (
+        value_noise_1d_numpy(azimuth / feature, SKY_SEED),
+        value_noise_1d_numpy(elevation / feature, SKY_SEED + 1),
+    )
+
+
 class Renderer:
     """Renders a scene from the robot's true pose; the scene is compiled once."""
 
@@ -104,6 +117,7 @@ class Renderer:
             ox, oy, d = _camera_rays(rig, pose, side)
             origins[i] = ox, oy
             dirs[i] = d
+        sky_cols, sky_rows = sky_pattern(rig, dirs, a.sky[3])
         n_img = len(sides) if want_color else 0
         rgb = np.empty((n_img, rig.height, rig.width, 3), dtype=np.uint8)
         depth = np.empty((rig.height, rig.width), dtype=np.float32)
@@ -116,7 +130,7 @@ class Renderer:
                 fp.kind, fp.cx, fp.cy, fp.cos, fp.sin, fp.hx, fp.hy, fp.height,
                 fp.color, fp.feature_size, fp.contrast,
                 a.ground_color, a.ground_feature, a.ground_contrast, a.light, a.ambient, a.sky,
-                want_color, rgb, depth, ids,
+                sky_cols, sky_rows, want_color, rgb, depth, ids,
             )  # fmt: skip
         return rgb, depth, ids
 
@@ -136,7 +150,7 @@ class Renderer:
 def _render_kernel(
     origins, dirs, hc, f, cy, height,
     kind, ocx, ocy, ocos, osin, ohx, ohy, oh, ocolor, ofeat, ocontrast,
-    gcolor, gfeat, gcontrast, light, ambient, sky,
+    gcolor, gfeat, gcontrast, light, ambient, sky, sky_cols, sky_rows,
     want_color, rgb, depth, ids,
 ):  # fmt: skip
     n_cams, width = dirs.shape[0], dirs.shape[1]
@@ -165,7 +179,7 @@ def _render_kernel(
             _render_column(
                 cam, u, origins, dirs, hc, f, cy, height,
                 kind, ocx, ocy, ocos, osin, ohx, ohy, oh, ocolor, ofeat, ocontrast,
-                gcolor, gfeat, gcontrast, light, ambient, sky,
+                gcolor, gfeat, gcontrast, light, ambient, sky, sky_cols, sky_rows,
                 want_color, rgb, depth, ids,
                 t_in, t_out, nxs, nys, side_s, order,
                 r_best, r_hit, r_top, r_s, r_t, r_seed, r_feat, r_fp, r_tex, r_q,
@@ -176,7 +190,7 @@ def _render_kernel(
 def _render_column(
     cam, u, origins, dirs, hc, f, cy, height,
     kind, ocx, ocy, ocos, osin, ohx, ohy, oh, ocolor, ofeat, ocontrast,
-    gcolor, gfeat, gcontrast, light, ambient, sky,
+    gcolor, gfeat, gcontrast, light, ambient, sky, sky_cols, sky_rows,
     want_color, rgb, depth, ids,
     t_in, t_out, nxs, nys, side_s, order,
     r_best, r_hit, r_top, r_s, r_t, r_seed, r_feat, r_fp, r_tex, r_q,
@@ -230,12 +244,10 @@ def _render_column(
         if not want_color:
             continue
         r_best[v], r_hit[v], r_top[v] = best, hit, top
-        first_seen = min(first_seen, v)
         if hit == -2:
-            # Texture of the direction (azimuth, elevation): the same in both cameras.
-            r_s[v], r_t[v], r_seed[v] = math.atan2(dy, dx), math.atan(-slope), SKY_SEED
-            r_feat[v], r_fp[v] = sky[3], 1.0 / f
+            r_s[v], r_t[v], r_seed[v], r_feat[v], r_fp[v] = 0.0, 0.0, 0, 1.0, 1.0
             continue
+        first_seen = min(first_seen, v)
         px, py = ox + best * dx, oy + best * dy
         if hit == -1 or top:
             s, t = px, py
@@ -257,7 +269,9 @@ def _render_column(
     for v in range(height):
         hit, top, best = r_hit[v], r_top[v], r_best[v]
         if hit == -2:
-            gain = 1.0 + sky[4] * (2.0 * r_tex[v] - 1.0)
+            # The sky's pattern depends on the direction only: zero disparity.
+            tex = 0.5 + 2.0 * (sky_cols[cam, u] - 0.5) * (sky_rows[v] - 0.5)
+            gain = 1.0 + sky[4] * (2.0 * tex - 1.0)
             for ch in range(3):
                 val = min(max(sky[ch] * gain, 0.0), 1.0)
                 rgb[cam, v, u, ch] = np.uint8(math.floor(val * 255.0 + 0.5))
@@ -291,6 +305,7 @@ def render_reference(scene: Scene, rig: StereoRig, pose: Pose2D) -> RenderedPair
     images, depth0, ids0 = [], None, None
     for side in ("left", "right"):
         ox, oy, dirs = _camera_rays(rig, pose, side)
+        sky_cols, sky_rows = sky_pattern(rig, dirs[None], a.sky[3])
         img = np.empty((rig.height, rig.width, 3), dtype=np.uint8)
         depth = np.empty((rig.height, rig.width))
         ids = np.empty((rig.height, rig.width), dtype=np.int64)
@@ -317,7 +332,7 @@ def render_reference(scene: Scene, rig: StereoRig, pose: Pose2D) -> RenderedPair
             top = pick > n
             depth[:, u], ids[:, u] = best, hit
             img[:, u] = _shade_column_numpy(a, hc, rig.focal_px, ox, oy, dx, dy, slope, best, hit,
-                                            top, nxs, nys)  # fmt: skip
+                                            top, nxs, nys, sky_cols[0, u], sky_rows)  # fmt: skip
         images.append(img)
         if depth0 is None:
             depth0, ids0 = depth, ids
@@ -325,7 +340,9 @@ def render_reference(scene: Scene, rig: StereoRig, pose: Pose2D) -> RenderedPair
     return RenderedPair(images[0], images[1], depth0.astype(np.float32), ids0.astype(np.int16))
 
 
-def _shade_column_numpy(a, hc, f, ox, oy, dx, dy, slope, best, hit, top, nxs, nys) -> np.ndarray:
+def _shade_column_numpy(
+    a, hc, f, ox, oy, dx, dy, slope, best, hit, top, nxs, nys, sky_col, sky_rows
+) -> np.ndarray:
     fp = a.fp
     k = np.maximum(hit, 0)
     obstacle = hit >= 0
@@ -340,22 +357,22 @@ def _shade_column_numpy(a, hc, f, ox, oy, dx, dy, slope, best, hit, top, nxs, ny
     else:
         along = px
     sky = hit == -2
-    s = np.where(sky, math.atan2(dy, dx), np.where(flat, px, along))
-    t = np.where(sky, np.arctan(-slope), np.where(flat, py, hc - slope * finite))
-    seed = np.where(sky, SKY_SEED, np.where(obstacle, 2 + 2 * k + top, 0))
+    s = np.where(flat, px, along)
+    t = np.where(flat, py, hc - slope * finite)
+    seed = np.where(obstacle, 2 + 2 * k + top, 0)
     feat = np.where(obstacle, fp.feature_size[k], a.ground_feature) if len(fp) else a.ground_feature
-    feat = np.where(sky, a.sky[3], feat)
     contrast = (
         np.where(obstacle, fp.contrast[k], a.ground_contrast) if len(fp) else a.ground_contrast
     )
     grazing = np.maximum(slope / np.sqrt(1.0 + slope * slope), _MIN_INCIDENCE_COS)
     incidence = np.where(nz > 0.0, grazing, 1.0)
-    footprint = np.where(sky, 1.0 / f, finite / f / incidence)
+    footprint = np.where(sky, 1.0, finite / f / incidence)
     tex = texture_value_numpy(s, t, seed, feat, footprint)
     lambert = np.maximum(nx * a.light[0] + ny * a.light[1] + nz * a.light[2], 0.0)
     gain = (1.0 + contrast * (2.0 * tex - 1.0)) * (a.ambient + (1.0 - a.ambient) * lambert)
     base = np.where(obstacle[:, None], fp.color[k] if len(fp) else 0.0, a.ground_color)
     val = np.clip(base * gain[:, None], 0.0, 1.0)
-    sky_val = np.clip(a.sky[:3] * (1.0 + a.sky[4] * (2.0 * tex - 1.0))[:, None], 0.0, 1.0)
+    sky_tex = 0.5 + 2.0 * (sky_col - 0.5) * (sky_rows - 0.5)
+    sky_val = np.clip(a.sky[:3] * (1.0 + a.sky[4] * (2.0 * sky_tex - 1.0))[:, None], 0.0, 1.0)
     val = np.where(sky[:, None], sky_val, val)
     return np.floor(val * 255.0 + 0.5).astype(np.uint8)

@@ -145,3 +145,30 @@ def texture_value_numpy(
         n = value_noise_numpy(s / spacing, t / spacing, seed * 4 + k)
         total += weight * (0.5 + fade * (n - 0.5))
     return total
+
+
+# Octaves (spacing in feature sizes, weight) of the 1-D noise that patterns the sky.
+_SKY_OCTAVES = ((1.0, 0.5), (0.5, 0.3), (0.25, 0.2))
+
+
+def value_noise_1d_numpy(x: np.ndarray, seed: int) -> np.ndarray:
+    """Smooth 1-D value noise in [0, 1) of ``x`` (in feature sizes), three octaves.
+
+    The sky is patterned by the product of this noise along the azimuth (one value per
+    image column) and along the elevation (one per row): a 2-D pattern that is a function
+    of the viewing direction only, computed once per frame.
+    """
+    x = np.asarray(x, dtype=float)
+    total = np.zeros_like(x)
+    for k, (spacing, weight) in enumerate(_SKY_OCTAVES):
+        y = x / spacing
+        fy = np.floor(y)
+        i = fy.astype(np.int64)
+        t = y - fy
+        smooth = t * t * (3.0 - 2.0 * t)
+        zero = np.zeros_like(i)
+        octave_seed = np.full_like(i, 4 * seed + k)
+        a = hash01_numpy(i, zero, octave_seed)
+        b = hash01_numpy(i + 1, zero, octave_seed)
+        total += weight * (a + (b - a) * smooth)
+    return total
