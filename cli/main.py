@@ -14,6 +14,7 @@ _COMMANDS = {
     "metrics": ("metrics", "metrics"),
     "compare": ("compare", "compare"),
     "export": ("export", "export"),
+    "experiment": ("experiment", "experiment"),
 }
 
 

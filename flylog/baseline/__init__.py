@@ -1,0 +1,1 @@
+"""flylog.baseline: conventional stereo (OpenCV StereoSGBM) to compare the flies against."""

@@ -1,0 +1,1 @@
+"""flylog.experiments: the paper's experiments, reproduced with tables and plots."""
