@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import os
-import tempfile
 from collections.abc import Iterable
 from pathlib import Path
 from types import TracebackType
@@ -12,7 +11,7 @@ from typing import Any, NamedTuple
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from flylog.errors import LogError
+from flylog.io.atomic import publish, temporary_beside
 
 
 class Column(NamedTuple):
@@ -66,14 +65,8 @@ class TableWriter:
         self.rows = 0
 
     def __enter__(self) -> TableWriter:
-        if not self.path.parent.is_dir():
-            msg = f"cannot write {self.path}: directory {self.path.parent} does not exist"
-            raise LogError(msg)
-        fd, tmp = tempfile.mkstemp(
-            prefix=f".{self.path.name}.", suffix=".part", dir=self.path.parent
-        )
+        fd, self._tmp = temporary_beside(self.path)
         os.close(fd)
-        self._tmp = Path(tmp)
         self._writer = pq.ParquetWriter(self._tmp, self.schema, compression="zstd")
         return self
 
@@ -105,8 +98,7 @@ class TableWriter:
             if exc_type is None:
                 self._flush()
                 self._writer.close()
-                self._tmp.chmod(0o644)
-                os.replace(self._tmp, self.path)
+                publish(self._tmp, self.path)
         finally:
             self._writer.close()
             self._tmp.unlink(missing_ok=True)

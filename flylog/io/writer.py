@@ -11,7 +11,6 @@ from __future__ import annotations
 import enum
 import json
 import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
@@ -23,6 +22,7 @@ import flylog
 from flylog.config import param
 from flylog.errors import LogError
 from flylog.io import contract
+from flylog.io.atomic import publish, temporary_beside
 
 
 class Compression(enum.Enum):
@@ -94,12 +94,7 @@ class LogWriter:
         return cls(path, compression=config.compression, chunk_size=config.chunk_size)
 
     def __enter__(self) -> LogWriter:
-        directory = self.path.parent
-        if not directory.is_dir():
-            msg = f"cannot write {self.path}: directory {directory} does not exist"
-            raise LogError(msg)
-        fd, tmp = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".part", dir=directory)
-        self._tmp = Path(tmp)
+        fd, self._tmp = temporary_beside(self.path)
         self._fh = os.fdopen(fd, "wb")
         self._writer = Writer(
             self._fh,
@@ -125,8 +120,7 @@ class LogWriter:
                 self._fh.flush()
                 os.fsync(self._fh.fileno())
                 self._fh.close()
-                _make_readable(self._tmp)
-                os.replace(self._tmp, self.path)
+                publish(self._tmp, self.path)
         finally:
             if not self._fh.closed:
                 self._fh.close()
@@ -223,10 +217,3 @@ def _schema_of(topic: str, message: Any) -> str:
         msg = f"cannot write {name} to {topic}: only the contract's schemas are supported"
         raise LogError(msg)
     return name
-
-
-def _make_readable(path: Path) -> None:
-    # mkstemp creates the file 0600; give the log the permissions open() would have.
-    umask = os.umask(0)
-    os.umask(umask)
-    path.chmod(0o666 & ~umask)
