@@ -35,8 +35,18 @@ def _goal(ctx: click.Context, param: click.Parameter, value: str | None):
     "config_file",
     type=click.Path(dir_okay=False, path_type=Path),
     default=None,
-    help="TOML file with the whole configuration (top-level options, [engine], [planner], "
-    "[obstacles]); the options below override it. [default: built-in defaults]",
+    help="TOML file with the whole configuration (top-level options, [engine], [sgbm], "
+    "[planner], [obstacles]); the options below override it. [default: built-in defaults]",
+)
+@click.option(
+    "--engine",
+    "stereo",
+    type=click.Choice(["flies", "sgbm"]),
+    default=None,
+    help="Stereo engine: flies (the fly algorithm) or sgbm (the conventional pipeline: "
+    "OpenCV StereoSGBM on complete frames, frame-synchronous, each frame costing "
+    "sgbm.seconds_per_frame of log time, --flies points per frame, no sonar fusion). "
+    "[default: flies]",
 )
 @click.option(
     "--seed",
@@ -94,6 +104,7 @@ def replay(
     log: Path,
     output: Path,
     config_file: Path | None,
+    stereo: str | None,
     seed: int | None,
     flies: int | None,
     generations_per_frame: int | None,
@@ -102,32 +113,39 @@ def replay(
     snapshot_rate: float | None,
     goal: tuple[float, float] | None,
 ) -> None:
-    """Replay LOG (an MCAP log from `flylog simulate`) through the fly engine and the
-    harmonic-function planner on a deterministic virtual clock. Never reads /truth/."""
+    """Replay LOG (an MCAP log from `flylog simulate`) through the fly engine (or the SGBM
+    baseline) and the harmonic-function planner on a deterministic virtual clock. Never
+    reads /truth/."""
     from flylog.config import replace_dotted
-    from flylog.replay.config import ReplayConfig, load_replay_config
+    from flylog.replay.config import ReplayConfig, Stereo, load_replay_config
     from flylog.replay.run import replay as run_replay
 
     config = load_replay_config(config_file) if config_file else ReplayConfig()
-    config = replace_dotted(
-        config,
-        {
-            "seed": seed,
-            "engine.flies": flies,
-            "generations_per_frame": generations_per_frame,
-            "evals_per_second": evals_per_second,
-            "sync": sync,
-            "snapshot_rate": snapshot_rate,
-        },
-    )
+    overrides = {
+        "seed": seed,
+        "engine.flies": flies,
+        "generations_per_frame": generations_per_frame,
+        "evals_per_second": evals_per_second,
+        "sync": sync,
+        "snapshot_rate": snapshot_rate,
+        # last: the cross-field check (sgbm runs one step per frame) sees the final options
+        "stereo": Stereo(stereo) if stereo is not None else None,
+    }
+    try:
+        config = replace_dotted(config, overrides)
+    except ValueError as exc:  # a cross-field check, e.g. sgbm with several generations
+        raise click.UsageError(str(exc)) from None
     with progress_bar(f"replay {log.name}", unit="s") as update:
         summary = run_replay(log, output, config, goal=goal, on_progress=update)
     speed = summary.log_duration / summary.wall_seconds
+    if summary.stereo == Stereo.SGBM.value:
+        work = f"{summary.generations} frames matched by SGBM"
+    else:
+        work = f"{summary.generations} generations, {summary.evaluations / 1e6:.2f} M evaluations"
     stdout.print(
         f"{summary.output} and {summary.table.name}: {summary.log_duration:g} s of log "
         f"replayed in {summary.wall_seconds:.1f} s ({speed:.1f}× real time), "
-        f"{summary.frames} frames, {summary.generations} generations, "
-        f"{summary.evaluations / 1e6:.2f} M evaluations, {summary.snapshots} snapshots, "
+        f"{summary.frames} frames, {work}, {summary.snapshots} snapshots, "
         f"planner {summary.status}",
         soft_wrap=True,
     )

@@ -1,11 +1,14 @@
 """The whole configuration of a replay (and of the closed loop): one TOML file, every default
-written once. Top-level fields, then the ``[engine]``, ``[planner]`` and ``[obstacles]`` tables."""
+written once. Top-level fields, then the ``[engine]``, ``[sgbm]``, ``[planner]`` and
+``[obstacles]`` tables."""
 
 from __future__ import annotations
 
+import enum
 from dataclasses import dataclass
 from pathlib import Path
 
+from flylog.baseline.config import SgbmConfig
 from flylog.config import from_mapping, param, read_toml
 from flylog.fly.config import EngineConfig
 from flylog.fly.obstacles import ObstacleFlies
@@ -13,8 +16,22 @@ from flylog.planner.config import PlannerConfig
 from flylog.replay.clock import Mode
 
 
+class Stereo(enum.Enum):
+    """Which stereo engine feeds the planner and the ``/flies`` topic."""
+
+    FLIES = "flies"  # the fly algorithm ([engine])
+    SGBM = "sgbm"  # conventional OpenCV StereoSGBM on complete frames ([sgbm])
+
+
 @dataclass(frozen=True)
 class ReplayConfig:
+    stereo: Stereo = param(
+        Stereo.FLIES,
+        help="flies: the fly algorithm ([engine]); sgbm: the conventional pipeline, OpenCV "
+        "StereoSGBM ([sgbm]) on complete frames, frame-synchronous (sync mode, one step per "
+        "frame costing sgbm.seconds_per_frame), no sonar fusion, engine.flies points per "
+        "frame",
+    )
     seed: int = param(0, help="seed of the engine's random generator", min=0)
     generations_per_frame: int = param(
         0,
@@ -26,7 +43,8 @@ class ReplayConfig:
     sync: bool = param(
         False,
         help="conventional pipeline (paper Table 1): only complete frames, results published "
-        "when processing ends; runs generations_per_frame (at least 1) per frame",
+        "when processing ends; runs generations_per_frame (at least 1) per frame (implied "
+        "by stereo = sgbm)",
     )
     evals_per_second: float = param(
         0.5e6,
@@ -42,12 +60,21 @@ class ReplayConfig:
         1000, help="best flies drawn on the left image in each snapshot", min=0
     )
     engine: EngineConfig = param(EngineConfig(), help="the fly engine")
+    sgbm: SgbmConfig = param(SgbmConfig(), help="the conventional stereo baseline")
     planner: PlannerConfig = param(PlannerConfig(), help="the harmonic planner")
     obstacles: ObstacleFlies = param(ObstacleFlies(), help="obstacle flies")
 
+    def __post_init__(self) -> None:
+        if self.stereo is Stereo.SGBM and self.generations_per_frame > 1:
+            msg = (
+                "stereo = sgbm processes each frame once: generations_per_frame must be 0 or "
+                f"1, got {self.generations_per_frame}"
+            )
+            raise ValueError(msg)
+
     @property
     def mode(self) -> Mode:
-        if self.sync:
+        if self.sync or self.stereo is Stereo.SGBM:
             return Mode.SYNC
         return Mode.PER_FRAME if self.generations_per_frame > 0 else Mode.ASYNC
 
@@ -55,6 +82,13 @@ class ReplayConfig:
     def generations_per_cycle(self) -> int:
         """Generations per frame in the frame-driven modes (sync runs at least one)."""
         return max(1, self.generations_per_frame)
+
+    def generation_cost_ns(self, evaluations: int) -> int:
+        """Virtual time of one generation (of one frame for sgbm), ns: the fly engine's
+        evaluations / evals_per_second, SGBM's fixed sgbm.seconds_per_frame."""
+        if self.stereo is Stereo.SGBM:
+            return self.sgbm.cost_ns
+        return round(evaluations * 1e9 / self.evals_per_second)
 
 
 def load_replay_config(path: Path) -> ReplayConfig:

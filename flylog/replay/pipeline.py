@@ -2,14 +2,16 @@
 
 Used by replay (sensor records from a log) and by the simulator's closed loop (records as
 they are produced): the paper's shared memory (Fig. 6) is the published population, which
-the planner reads at its own rate, and the planner's newest command.
+the planner reads at its own rate, and the planner's newest command. The engine is the fly
+engine or, with ``stereo = "sgbm"``, the conventional SGBM baseline: same interface, same
+planner, same outputs.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -18,7 +20,7 @@ from flylog.fly.population import Population
 from flylog.geometry import Pose2D, StereoRig, relative, transform_points_2d
 from flylog.io import contract, encode
 from flylog.planner import Command, HarmonicPlanner, Status
-from flylog.replay.config import ReplayConfig
+from flylog.replay.config import ReplayConfig, Stereo
 from flylog.sensors import OdomReading, SonarReading, StereoPair
 
 Write = Callable[[str, int, Any], None]
@@ -27,8 +29,33 @@ PLANNER_TICK = "planner"
 SNAPSHOT_TICK = "snapshot"
 
 
+class StereoEngine(Protocol):
+    """What the pipeline needs of an engine (FlyEngine and SgbmEngine implement it)."""
+
+    def set_images(self, pair: StereoPair) -> None: ...
+
+    def set_sonar(self, reading: SonarReading) -> None: ...
+
+    def apply_motion(self, increment: Pose2D) -> None: ...
+
+    def step(self) -> GenerationStats: ...
+
+    @property
+    def population(self) -> Population: ...
+
+
+def stereo_engine(config: ReplayConfig, rig: StereoRig) -> StereoEngine:
+    """The engine ``config.stereo`` names; SGBM samples as many points as there are flies."""
+    if config.stereo is Stereo.SGBM:
+        from flylog.baseline.sgbm import SgbmEngine  # OpenCV only when asked for
+
+        return SgbmEngine(config.sgbm, rig, points=config.engine.flies)
+    return FlyEngine(config.engine, rig, np.random.default_rng(config.seed))
+
+
 class FlyPipeline:
-    """Implements :class:`flylog.replay.clock.Pipeline` over a FlyEngine and a HarmonicPlanner.
+    """Implements :class:`flylog.replay.clock.Pipeline` over a stereo engine (the FlyEngine or
+    the SgbmEngine, :func:`stereo_engine`) and a HarmonicPlanner.
 
     ``write(topic, t_ns, message)`` receives every output message; ``on_row`` one row of the
     per-step table per planner tick. ``write_tf`` is off in the closed loop, where the
@@ -48,7 +75,7 @@ class FlyPipeline:
     ) -> None:
         self.config = config
         self.rig = rig
-        self.engine = FlyEngine(config.engine, rig, np.random.default_rng(config.seed))
+        self.engine = stereo_engine(config, rig)
         # centred between start and goal, so both fit whenever they are extent apart at most
         centre = ((start.x + goal[0]) / 2.0, (start.y + goal[1]) / 2.0)
         self.planner = HarmonicPlanner.centred_on(config.planner, centre, goal)
@@ -87,7 +114,7 @@ class FlyPipeline:
         self._last_stats = self.engine.step()
         evals = self._last_stats.evaluations
         self._evaluations += evals
-        return evals, round(evals * 1e9 / self.config.evals_per_second)
+        return evals, self.config.generation_cost_ns(evals)
 
     def publish(self, t_ns: int) -> None:
         assert self._last_stats is not None

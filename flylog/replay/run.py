@@ -27,9 +27,9 @@ _F, _I, _S = pa.float64(), pa.int64(), pa.string()
 # RUN.parquet: one row per planner tick (the README's table is made from this).
 STEP_COLUMNS = (
     Column("t", _F, "s", "log time of the planner tick"),
-    Column("generation", _I, "", "generations behind the population the planner saw"),
-    Column("evaluations", _I, "", "fitness evaluations so far"),
-    Column("valid_flies", _I, "", "flies inside both images, with positive fitness"),
+    Column("generation", _I, "", "generations (sgbm: frames matched) behind what the planner saw"),
+    Column("evaluations", _I, "", "fitness evaluations so far (sgbm: 0)"),
+    Column("valid_flies", _I, "", "flies inside both images, with positive fitness (sgbm: points)"),
     Column("obstacle_flies", _I, "", "flies taken for obstacles (the [obstacles] rule)"),
     Column("best_fitness", _F, "", "best fitness of the population the planner saw"),
     Column("median_fitness", _F, "", "median fitness of its valid flies"),
@@ -56,6 +56,7 @@ class ReplaySummary:
     evaluations: int
     snapshots: int
     status: str  # the planner's last status
+    stereo: str  # the engine: flies or sgbm
 
 
 def table_path(output: Path) -> Path:
@@ -134,4 +135,5 @@ def replay(
         evaluations=stats.evaluations,
         snapshots=pipeline.snapshots,
         status=pipeline.command.status.value,
+        stereo=config.stereo.value,
     )
