@@ -60,6 +60,14 @@ class PlannerConfig:
         True,
         help="forget obstacle cells that the cameras see as free (in view, not occluded)",
     )
+    confirm_after_views: int = param(
+        2,
+        help="consecutive updates a cell must be seen dense before it becomes an obstacle: "
+        "counted in planner ticks (time), not engine generations, so a population that has "
+        "not converged yet cannot plant phantom obstacles whatever the compute budget",
+        min=1,
+        max=10_000,
+    )
     clear_after_views: int = param(
         3,
         help="consecutive updates a remembered obstacle cell must be seen free to be cleared",

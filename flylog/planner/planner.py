@@ -79,6 +79,7 @@ class HarmonicPlanner:
         self._border[:, [0, -1]] = True
         self._remembered = np.zeros((n, n), dtype=bool)  # detected, before inflation
         self._seen_free_count = np.zeros((n, n), dtype=np.int32)
+        self._seen_dense_count = np.zeros((n, n), dtype=np.int32)
         self._obstacles = np.zeros((n, n), dtype=bool)  # inflated
         self._obstacle_values = np.zeros((n, n))  # Dirichlet values on self._obstacles
         self._fixed = np.zeros((n, n), dtype=bool)
@@ -135,7 +136,8 @@ class HarmonicPlanner:
     ) -> int:
         """Fold the obstacle flies seen now (points (M, 2) or (M, 3) in odom) into the grid.
 
-        Dense cells inside the view sector become obstacles; cells outside the view keep
+        Cells dense inside the view sector for ``confirm_after_views`` updates in a row
+        become obstacles; cells outside the view keep
         what they were; with ``clear_free_cells``, a remembered cell seen free (in view,
         not dense, not in a detection's shadow) ``clear_after_views`` updates in a row is
         forgotten. Returns how many inflated obstacle cells changed.
@@ -150,9 +152,16 @@ class HarmonicPlanner:
         rows, cols = self._window(robot_pose, vr)
         rng, bearing = obs.polar_of_cells(self.geometry, robot_pose, rows, cols)
         in_view = obs.view_mask(rng, bearing, half_fov, vr)
-        detected = dense[rows, cols] & in_view
+        # a cell counts as detected once it has been dense in view confirm_after_views
+        # updates in a row (cells outside the window start counting again)
+        dense_now = dense[rows, cols] & in_view
+        count = np.zeros_like(self._seen_dense_count)
+        count[rows, cols] = np.where(dense_now, self._seen_dense_count[rows, cols] + 1, 0)
+        self._seen_dense_count = count
+        detected = dense_now & (count[rows, cols] >= cfg.confirm_after_views)
         if cfg.clear_free_cells:
-            free = obs.seen_free(in_view, detected, rng, bearing, half_fov, cfg.cell_size, vr)
+            # a dense cell is not free, and hides what lies behind it, confirmed or not
+            free = obs.seen_free(in_view, dense_now, rng, bearing, half_fov, cfg.cell_size, vr)
             seen = np.zeros_like(self._seen_free_count)
             seen[rows, cols] = np.where(free, self._seen_free_count[rows, cols] + 1, 0)
             self._seen_free_count = seen
@@ -169,6 +178,7 @@ class HarmonicPlanner:
         """Forget every obstacle (the potential relaxes back over the freed cells)."""
         self._remembered[:] = False
         self._seen_free_count[:] = 0
+        self._seen_dense_count[:] = 0
         self._set_obstacles()
         self._apply_dirichlet()
 

@@ -9,7 +9,9 @@ from flylog.planner import obstacles as obs
 from flylog.planner.grid import GridGeometry
 
 # 10 m grid at 0.1 m centred on the origin; the robot at the origin looking along +x.
-CFG = PlannerConfig(extent=10.0, cell_size=0.1, robot_radius=0.0, density_radius=0.1)
+CFG = PlannerConfig(
+    extent=10.0, cell_size=0.1, robot_radius=0.0, density_radius=0.1, confirm_after_views=1
+)
 ROBOT = Pose2D(0.0, 0.0, 0.0)
 FOV = math.radians(30.0)
 
@@ -37,6 +39,18 @@ def test_density_threshold_counts_flies_per_square_metre():
     assert p.detected_mask[_cell(p, 2.05, 0.05)]
     assert not p.detected_mask[_cell(p, 3.05, 0.05)]
     assert np.count_nonzero(p.detected_mask) == 1
+
+
+def test_a_cell_must_be_dense_on_consecutive_updates_to_become_an_obstacle():
+    p = _planner(confirm_after_views=2)
+    flies = _cluster(2.05, 0.05, 5)
+    p.update_obstacles(flies, ROBOT, FOV)
+    assert not p.detected_mask.any()  # seen dense once: not yet evidence
+    p.update_obstacles(np.empty((0, 3)), ROBOT, FOV)
+    p.update_obstacles(flies, ROBOT, FOV)
+    assert not p.detected_mask.any()  # the run was broken: counting starts again
+    p.update_obstacles(flies, ROBOT, FOV)
+    assert p.detected_mask[_cell(p, 2.05, 0.05)]  # dense twice in a row: an obstacle
 
 
 def test_density_uses_the_window_but_marks_only_cells_with_flies():

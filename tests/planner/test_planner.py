@@ -16,7 +16,7 @@ from flylog.planner import (
 )
 from flylog.planner.steering import unicycle_command
 
-SMALL = PlannerConfig(extent=6.0, cell_size=0.1)
+SMALL = PlannerConfig(extent=6.0, cell_size=0.1, confirm_after_views=1)
 
 
 def _converged(cfg: PlannerConfig = SMALL, goal=(2.0, 0.0)) -> HarmonicPlanner:
@@ -52,7 +52,7 @@ def test_relax_keeps_values_between_ticks_and_converges():
 
 @pytest.mark.parametrize("kind", list(Relaxation), ids=lambda k: k.value)
 def test_both_relaxations_give_the_same_planner_field(kind):
-    cfg = PlannerConfig(extent=6.0, cell_size=0.1, relaxation=kind)
+    cfg = PlannerConfig(extent=6.0, cell_size=0.1, relaxation=kind, confirm_after_views=1)
     p = HarmonicPlanner.centred_on(cfg, (0.0, 0.0), (2.0, 0.5))
     ref = HarmonicPlanner.centred_on(SMALL, (0.0, 0.0), (2.0, 0.5))
     for _ in range(5):
@@ -94,7 +94,9 @@ def test_goal_reached_within_tolerance():
 
 
 def test_stuck_after_the_configured_time_without_progress():
-    cfg = PlannerConfig(extent=6.0, cell_size=0.1, stuck_time=3.0, stuck_progress=0.1)
+    cfg = PlannerConfig(
+        extent=6.0, cell_size=0.1, stuck_time=3.0, stuck_progress=0.1, confirm_after_views=1
+    )
     p = _converged(cfg)
     pose = Pose2D(-1.0, 0.0, 0.0)
     statuses = [p.command(pose, t).status for t in np.arange(0.0, 4.0, 0.5)]
@@ -108,7 +110,9 @@ def test_stuck_after_the_configured_time_without_progress():
 
 
 def test_path_is_bounded_and_says_which_bound_stopped_it():
-    cfg = PlannerConfig(extent=6.0, cell_size=0.1, path_max_steps=10, path_step=0.05)
+    cfg = PlannerConfig(
+        extent=6.0, cell_size=0.1, path_max_steps=10, path_step=0.05, confirm_after_views=1
+    )
     p = _converged(cfg)
     path = p.trace_path(Pose2D(-2.0, 0.0, 0.0))
     assert path.end is PathEnd.MAX_STEPS
@@ -124,7 +128,7 @@ def test_path_is_bounded_and_says_which_bound_stopped_it():
 
 
 def test_path_into_obstacle_or_off_grid_is_reported():
-    cfg = PlannerConfig(extent=6.0, cell_size=0.1, robot_radius=0.0)
+    cfg = PlannerConfig(extent=6.0, cell_size=0.1, robot_radius=0.0, confirm_after_views=1)
     p = _converged(cfg)
     p._u[:] = p.geometry.centres()[0] / 10.0  # private on purpose: U rises along +x
     p._grad_cache = None
@@ -170,7 +174,9 @@ def _simulate(cfg: PlannerConfig, wall: np.ndarray, start: Pose2D, goal, max_tim
 
 @pytest.mark.parametrize("kind", list(Relaxation), ids=lambda k: k.value)
 def test_end_to_end_robot_drives_around_a_wall_to_the_goal(kind):
-    cfg = PlannerConfig(extent=10.0, cell_size=0.1, relaxation=kind, sweeps_per_tick=40)
+    cfg = PlannerConfig(
+        extent=10.0, cell_size=0.1, relaxation=kind, sweeps_per_tick=40, confirm_after_views=1
+    )
     # a wall 3 m wide across the straight line from start to goal, seen by the cameras
     ys = np.arange(-1.5, 1.5, 0.02)
     wall = np.column_stack([np.zeros_like(ys), ys, np.full_like(ys, 0.3)])
@@ -190,7 +196,9 @@ def test_end_to_end_robot_drives_around_a_wall_to_the_goal(kind):
 
 @pytest.mark.parametrize("rise", [0.1, 0.0])
 def test_path_from_inside_an_inflated_obstacle_leaves_it(rise):
-    cfg = PlannerConfig(extent=6.0, cell_size=0.1, robot_radius=0.5, escape_rise=rise)
+    cfg = PlannerConfig(
+        extent=6.0, cell_size=0.1, robot_radius=0.5, escape_rise=rise, confirm_after_views=1
+    )
     p = _converged(cfg)
     robot = Pose2D(-1.0, 0.0, 0.0)
     # flies 0.3 m to the robot's left: the robot now sits in the inflated obstacle
