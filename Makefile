@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 DEMO_DIR := demo-out
 
-.PHONY: demo test lint bench fixtures clean
+.PHONY: demo test lint bench fixtures experiments clean
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -25,6 +25,9 @@ test: lint
 
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks
+
+experiments: $(STAMP)
+	$(BIN)/flylog experiment all -o docs/experiments
 
 fixtures: $(STAMP)
 	$(BIN)/python fixtures/regenerate.py

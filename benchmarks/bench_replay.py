@@ -7,7 +7,6 @@ with 5000 flies, 10 generations per frame, planner 200×200 at 10 Hz, all output
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import math
 import subprocess
@@ -17,12 +16,10 @@ from pathlib import Path
 import numpy as np
 
 from flylog.config import replace_dotted
-from flylog.io import contract
-from flylog.io.reader import open_log
+from flylog.experiments.reaction import first_visible_frames, reaction_delays
 from flylog.replay.config import ReplayConfig
 from flylog.replay.run import replay
-from flylog.scene.load import distance_to_obstacles, load_scene
-from flylog.sim.render import Renderer
+from flylog.scene.load import load_scene
 from flylog.sim.run import SimulationOptions, simulate
 
 SCENES = Path(__file__).resolve().parents[1] / "fixtures" / "scenes"
@@ -83,50 +80,12 @@ def _speed(out_dir: Path) -> list[dict]:
     return figures
 
 
-def _first_visible(log: Path, scene, renderer: Renderer) -> dict[int, int]:
-    """Obstacle index → log time (ns) of the first stereo frame where it covers
-    VISIBLE_PIXELS of the true left view."""
-    reader = open_log(log)
-    poses = [(m.log_time_ns, m.value.pose) for m in reader.messages([contract.TRUTH_POSE])]
-    times = np.array([t for t, _ in poses])
-    first: dict[int, int] = {}
-    for m in reader.raw_messages([contract.LEFT_IMAGE]):
-        t = m.message.log_time
-        pose = poses[int(np.searchsorted(times, t))][1]
-        _, ids = renderer.render_depth(pose)
-        counts = np.bincount(ids[ids >= 0].ravel(), minlength=len(scene.obstacles))
-        for k in np.flatnonzero(counts >= VISIBLE_PIXELS):
-            first.setdefault(int(k), t)
-    return first
-
-
-def _first_reaction(run: Path, scene, obstacle: int, after_ns: int) -> float:
-    """Log time (ns) of the first potential snapshot at or after ``after_ns`` in which a
-    cell on the obstacle's footprint is a Dirichlet obstacle cell (U ≥ 1)."""
-    for m in open_log(run).messages([contract.PLANNER_POTENTIAL]):
-        if m.log_time_ns < after_ns:
-            continue
-        g = m.value
-        rows, cols = g.values.shape
-        j, i = np.meshgrid(np.arange(cols), np.arange(rows))
-        xy = np.stack([g.origin.x + (j + 0.5) * g.cell, g.origin.y + (i + 0.5) * g.cell], -1)
-        near = _on_footprint(scene, obstacle, xy.reshape(-1, 2), g.cell)
-        if np.any(g.values.reshape(-1)[near] >= 1.0 - 1e-6):
-            return m.log_time_ns
-    return math.nan
-
-
-def _on_footprint(scene, obstacle: int, xy: np.ndarray, cell: float) -> np.ndarray:
-    one = dataclasses.replace(scene, obstacles=(scene.obstacles[obstacle],))
-    return distance_to_obstacles(one, xy) <= cell
-
-
 def _latency(out_dir: Path) -> list[dict]:
     scene = load_scene(SCENES / "turn.toml")
     log = _log(out_dir, "turn", 8.0)
     rig = scene.spec.camera
     period = 1e9 / rig.frame_rate
-    visible = _first_visible(log, scene, Renderer(scene, rig))
+    visible = first_visible_frames(log, scene, rig, VISIBLE_PIXELS)
     budget = REFERENCE.evals_per_second
     # Same compute budget for both: sync processes each complete frame with the generations
     # the budget affords in one frame period (paper Table 1: processing takes one cycle).
@@ -142,11 +101,8 @@ def _latency(out_dir: Path) -> list[dict]:
     for name, config in modes.items():
         run = out_dir / f"bench_replay_turn_{name}.mcap"
         replay(log, run, config)
-        delays = []
-        for k, t_vis in sorted(visible.items()):
-            t_react = _first_reaction(run, scene, k, t_vis)
-            if not math.isnan(t_react):
-                delays.append((t_react - t_vis) / period)
+        each = reaction_delays(run, scene, visible, period)
+        delays = [d for d in each.values() if not math.isnan(d)]
         figures.append(
             {
                 "name": f"obstacle entering view -> planner reaction, {name}",

@@ -1,0 +1,121 @@
+"""``flylog experiment``: thin wrapper over :func:`flylog.experiments.run_experiment`."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from flylog.cli.common import progress_bar, reports_errors, resolution, stdout
+
+QUICK_RESOLUTION = (160, 120)
+QUICK_SEEDS = 2
+DEFAULT_SEEDS = 5
+
+
+@click.command()
+@click.argument("name", metavar="NAME")
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=Path("experiments-out"),
+    show_default=True,
+    help="Directory to write into: each experiment writes DIR/NAME/summary.md (its table "
+    "and plots), its PNGs and results.json (every run's figures).",
+)
+@click.option(
+    "--seeds",
+    type=click.IntRange(min=1, max=1000),
+    default=None,
+    metavar="N",
+    help=f"Seeds per configuration, 0…N−1 (each simulates its own log and seeds the "
+    f"engine). [default: {DEFAULT_SEEDS}; {QUICK_SEEDS} with --quick]",
+)
+@click.option(
+    "--resolution",
+    callback=resolution,
+    default=None,
+    metavar="WxH",
+    help="Image size in pixels; the field of view stays the scene's. "
+    "[default: 320x240; 160x120 with --quick]",
+)
+@click.option(
+    "--duration",
+    type=click.FloatRange(min=0.0, min_open=True),
+    default=None,
+    metavar="SECONDS",
+    help="Simulated time of every log. [default: each experiment's scene durations: turn "
+    "8 s, near-obstacle 5 s, corridor 30 s; the closed loop stops at the goal or after 120 s]",
+)
+@click.option(
+    "--flies",
+    type=click.IntRange(min=16),
+    default=None,
+    metavar="N",
+    help="Population size. [default: the engine's, 5000]",
+)
+@click.option(
+    "--quick",
+    is_flag=True,
+    help=f"A smaller run: {QUICK_RESOLUTION[0]}x{QUICK_RESOLUTION[1]} images and "
+    f"{QUICK_SEEDS} seeds (an explicit --resolution or --seeds wins).",
+)
+@click.option(
+    "--keep-logs",
+    is_flag=True,
+    help="Keep the sensor logs and runs (MCAP, about 100 MB per 30 s at 320x240) under "
+    "DIR/NAME/runs/. [default: deleted once scored]",
+)
+@reports_errors
+def experiment(
+    name: str,
+    output: Path,
+    seeds: int | None,
+    resolution: tuple[int, int] | None,
+    duration: float | None,
+    flies: int | None,
+    quick: bool,
+    keep_logs: bool,
+) -> None:
+    """Run one of the paper's experiments (or all) over several seeds and write a Markdown
+    summary with a table and PNG plots.
+
+    NAME is one of: proprioception (on/off on turn, one generation per frame: Fig. 4/5),
+    sonar (fusion on/off on near-obstacle: Fig. 9), latency (async vs --sync vs SGBM:
+    detection latency and planner reaction, Table 1), closed-loop (obstacle avoidance on
+    corridor and clutter: Fig. 7/8), all.
+    """
+    from flylog.experiments import EXPERIMENTS, experiment_names, run_experiment
+    from flylog.experiments.common import ExperimentOptions
+
+    names = experiment_names(name)
+    options = ExperimentOptions(
+        seeds=seeds or (QUICK_SEEDS if quick else DEFAULT_SEEDS),
+        resolution=resolution or (QUICK_RESOLUTION if quick else (320, 240)),
+        duration=duration,
+        flies=flies,
+        keep_logs=keep_logs,
+    )
+    for one in names:
+        with progress_bar(f"experiment {one}", unit="runs") as update:
+            result = run_experiment(one, output, options, on_progress=update)
+        _print_result(result, EXPERIMENTS[one][2])
+
+
+def _print_result(result, description: str) -> None:
+    from rich.table import Table
+
+    from flylog.experiments.common import format_cell
+
+    table = Table(title=f"{result.name}: {result.table.title}", title_justify="left")
+    for column in result.table.columns:
+        table.add_column(column.header, overflow="fold")
+    for row in result.table.rows:
+        table.add_row(*(format_cell(row.get(c.key), c.fmt) for c in result.table.columns))
+    stdout.print(table)
+    for line in result.findings:
+        stdout.print(f"- {line}", soft_wrap=True)
+    stdout.print(
+        f"{description}: {result.summary} and {len(result.figures)} figures", soft_wrap=True
+    )

@@ -1,0 +1,310 @@
+"""Closed-loop obstacle avoidance (paper §4, Fig. 7/8): the fly engine and the harmonic
+planner drive the simulated robot from start to goal on ``corridor`` and ``clutter``
+(``flylog simulate --drive planner``). A run *succeeds* if the true position reaches the
+goal without any collision (the robot's footprint never enters an obstacle's)."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from flylog.experiments import plots
+from flylog.experiments.common import (
+    Column,
+    Count,
+    ExperimentOptions,
+    ExperimentResult,
+    Progress,
+    Steps,
+    Table,
+    discard_logs,
+    experiment_dir,
+    spread,
+    write_results,
+)
+from flylog.experiments.markdown import write_summary
+from flylog.experiments.runs import (
+    fly_snapshots,
+    score,
+    simulate_scene,
+    to_world,
+    trajectories,
+    true_poses_at,
+    with_flies,
+)
+from flylog.replay.config import ReplayConfig
+
+NAME = "closed-loop"
+SCENES = ("corridor", "clutter")
+MAX_FLIES_DRAWN = 4000  # obstacle flies of seed 0 on the map, subsampled evenly
+# A time limit, not a duration: a run ends when the planner reports the goal reached. The
+# scenes' own durations (30 s, 40 s) suit their scripted drives, not the planner's slower,
+# winding paths.
+TIME_LIMIT = 120.0  # s
+
+
+@dataclasses.dataclass(frozen=True)
+class _Drawn:
+    """What the figures need of one run, kept after its log is deleted."""
+
+    seed: int
+    t: np.ndarray  # s
+    true_xy: np.ndarray
+    odom_xy: np.ndarray
+    clearance_t: np.ndarray
+    clearance: np.ndarray
+    flies: np.ndarray | None  # world x, y of the obstacle flies (seed 0 only)
+
+
+def touched_obstacles(scene, xy: np.ndarray, radius: float) -> list[int]:
+    """Indices of the obstacles the robot's footprint (disc of ``radius`` at each of the
+    true positions ``xy``) entered."""
+    from flylog.scene.load import distance_to_obstacles
+
+    out = []
+    for k, ob in enumerate(scene.obstacles):
+        one = dataclasses.replace(scene, obstacles=(ob,))
+        if np.any(distance_to_obstacles(one, xy) < radius):
+            out.append(k)
+    return out
+
+
+def describe_obstacle(scene, k: int) -> str:
+    ob = scene.obstacles[k]
+    where = ob.center if ob.center is not None else ob.start
+    what = ob.kind.value + (", untextured" if ob.low_texture else "")
+    what += ", sonar-absorbing" if ob.sonar_absorbing else ""
+    return f"#{k} ({what}, at x = {where[0]:.1f}, y = {where[1]:.1f})"
+
+
+def run_closed_loop(
+    out_dir: Path, options: ExperimentOptions, *, on_progress: Progress | None = None
+) -> ExperimentResult:
+    """Drive ``options.seeds`` runs on each scene; write ``out_dir/closed-loop/``."""
+    from flylog.scene.load import load_scene
+
+    here = experiment_dir(out_dir, NAME)
+    steps = Steps(options.seeds * len(SCENES), on_progress)
+    runs: list[dict] = []
+    drawn: dict[str, list[_Drawn]] = {s: [] for s in SCENES}
+    scenes = {name: load_scene(options.scene_path(name)) for name in SCENES}
+    for name, scene in scenes.items():
+        duration = options.duration_or(TIME_LIMIT)
+        for seed in range(options.seeds):
+            config = with_flies(ReplayConfig(seed=seed), options)
+            log = here / "runs" / f"{name}_s{seed}.mcap"
+            simulate_scene(options, name, seed, log, duration, drive_with=config)
+            scored = score(log, log)
+            s = scored.summary
+            t, true, odom = trajectories(log)
+            touched = touched_obstacles(scene, true[:, :2], scene.spec.robot.radius)
+            runs.append(
+                {
+                    "scene": name,
+                    "seed": seed,
+                    "success": bool(s["goal_reached"] and s["collisions"] == 0),
+                    **{k: s[k] for k in _SUMMARY_KEYS},
+                    "touched": [describe_obstacle(scene, k) for k in touched],
+                }
+            )
+            flies = _seed0_flies(log) if seed == 0 else None
+            rows = scored.snapshots
+            drawn[name].append(
+                _Drawn(
+                    seed,
+                    t,
+                    true[:, :2],
+                    odom[:, :2],
+                    np.array([r["t_s"] for r in rows]),
+                    np.array([r["nearest_true_m"] for r in rows]) - scene.spec.robot.radius,
+                    flies,
+                )
+            )
+            if not options.keep_logs:
+                log.unlink()
+            steps.step()
+    table = _table(runs, options.seeds)
+    figures = _figures(here, scenes, drawn)
+    findings = _findings(runs, table)
+    setup = [
+        f"scenes {', '.join(f'`{s}`' for s in SCENES)} at {options.resolution[0]}×"
+        f"{options.resolution[1]} pixels, closed loop (`flylog simulate --drive planner`), "
+        "asynchronous engine and planner with the defaults"
+        + (f", {options.flies} flies" if options.flies else " (5000 flies)"),
+        "each run ends when the planner reports the goal reached, or at the scene's "
+        "duration" + (f" (here {options.duration:g} s)" if options.duration is not None else ""),
+        f"{options.seeds} seeds per scene (0…{options.seeds - 1}): the seed drives the "
+        "trajectory and sonar noise and the engine; mean ± standard deviation over seeds",
+        "goal reached: the true position within 0.2 m of the goal (the planner reports the "
+        "goal from the odometric position: drift can make the two differ); collisions: "
+        "entries of the robot's disc into an obstacle's footprint (true trajectory)",
+    ]
+    summary = write_summary(
+        here,
+        title="Closed-loop obstacle avoidance (paper Fig. 7/8)",
+        intro=__doc__ or "",
+        table=table,
+        findings=findings,
+        figures=figures,
+        setup=setup,
+    )
+    write_results(here, options, table, runs)
+    discard_logs(here, options)
+    return ExperimentResult(
+        NAME, table, summary, tuple(p for p, _ in figures), tuple(runs), tuple(findings)
+    )
+
+
+_SUMMARY_KEYS = (
+    "goal_reached",
+    "planner_goal_reached",
+    "collisions",
+    "time_to_goal_s",
+    "final_goal_distance_m",
+    "path_length_m",
+    "min_clearance_m",
+    "ate_m",
+    "precision",
+    "recall",
+)
+
+
+def _seed0_flies(log: Path) -> np.ndarray:
+    """World x, y of every obstacle fly of every snapshot (from the true pose), subsampled."""
+    times, clouds = fly_snapshots(log)
+    if not len(times):
+        return np.empty((0, 2))
+    poses = true_poses_at(log, times)
+    xy = [to_world(c, p) for c, p in zip(clouds, poses, strict=True) if len(c)]
+    every = np.concatenate(xy) if xy else np.empty((0, 2))
+    if len(every) > MAX_FLIES_DRAWN:
+        every = every[np.linspace(0, len(every) - 1, MAX_FLIES_DRAWN).astype(int)]
+    return every
+
+
+def _table(runs: list[dict], seeds: int) -> Table:
+    rows = []
+    for name in SCENES:
+        mine = [r for r in runs if r["scene"] == name]
+        rows.append(
+            {
+                "scene": name,
+                "success": Count(sum(r["success"] for r in mine), len(mine)),
+                "goal_reached": Count(sum(bool(r["goal_reached"]) for r in mine), len(mine)),
+                "planner_goal": Count(
+                    sum(bool(r["planner_goal_reached"]) for r in mine), len(mine)
+                ),
+                "collision_free": Count(sum(r["collisions"] == 0 for r in mine), len(mine)),
+                **{
+                    k: spread([r[k] for r in mine])
+                    for k in (
+                        "time_to_goal_s",
+                        "path_length_m",
+                        "min_clearance_m",
+                        "ate_m",
+                        "precision",
+                        "recall",
+                    )
+                },
+            }
+        )
+    columns = (
+        Column("scene", "scene"),
+        Column("success", "success (goal, no collision)"),
+        Column("goal_reached", "goal reached"),
+        Column("planner_goal", "planner reported the goal"),
+        Column("collision_free", "no collision"),
+        Column("time_to_goal_s", "time to goal (s)", ".1f"),
+        Column("path_length_m", "path length (m)", ".2f"),
+        Column("min_clearance_m", "min clearance (m)", ".2f"),
+        Column("ate_m", "odometry ATE (m)", ".3f"),
+        Column("precision", "fly precision"),
+        Column("recall", "fly recall"),
+    )
+    return Table(f"Closed loop over {seeds} seeds per scene", columns, tuple(rows))
+
+
+def _findings(runs: list[dict], table: Table) -> list[str]:
+    out = []
+    for row in table.rows:
+        out.append(
+            f"`{row['scene']}`: goal reached without collision on {row['success'].k} of "
+            f"{row['success'].n} seeds (goal reached on {row['goal_reached'].k}, no collision "
+            f"on {row['collision_free'].k})"
+        )
+    for r in runs:
+        if r["touched"] or not r["goal_reached"]:
+            what = ", ".join(r["touched"]) if r["touched"] else "nothing"
+            said = "; the planner reported it reached" if r["planner_goal_reached"] else ""
+            goal = (
+                "reached"
+                if r["goal_reached"]
+                else f"NOT reached ({r['final_goal_distance_m']:.2f} m short{said})"
+            )
+            out.append(
+                f"`{r['scene']}` seed {r['seed']}: goal {goal}; touched {what}; "
+                f"min clearance {r['min_clearance_m']:.2f} m"
+            )
+    return out
+
+
+def _figures(here: Path, scenes: dict, drawn: dict[str, list[_Drawn]]) -> list[tuple[Path, str]]:
+    panels = []
+    for name, scene in scenes.items():
+        paths: list[plots.Path2D] = []
+        for d in drawn[name]:
+            paths.append(plots.Path2D(d.true_xy, "true", "tab:green"))
+            paths.append(plots.Path2D(d.odom_xy, "odometric", "tab:orange", "--", 1.0))
+        flies = next((d.flies for d in drawn[name] if d.flies is not None), None)
+        panels.append((name, scene, paths, flies))
+    out = []
+    for name, scene, paths, flies in panels:
+        out.append(
+            (
+                plots.map_figure(
+                    here / f"{name}.png",
+                    scene,
+                    [
+                        plots.MapPanel(
+                            f"{name}: {len(drawn[name])} seeds",
+                            paths=tuple(paths),
+                            flies=flies,
+                            flies_label="obstacle flies (seed 0)",
+                        )
+                    ],
+                ),
+                f"`{name}`: true (green) and odometric (orange, dashed) trajectories of every "
+                "seed; purple: the obstacle flies of seed 0 over the run (paper Fig. 7/8); "
+                "hatched: untextured, dashed outline: sonar-absorbing",
+            )
+        )
+    curve_panels = []
+    for name in scenes:
+        curve_panels.append(
+            (
+                f"{name}: clearance (m)",
+                [plots.Curve(name, tuple((d.clearance_t, d.clearance) for d in drawn[name]))],
+            )
+        )
+    drift = [
+        plots.Curve(
+            name,
+            tuple((d.t, np.hypot(*(d.true_xy - d.odom_xy).T)) for d in drawn[name]),
+        )
+        for name in scenes
+    ]
+    curve_panels.append(("odometric position error (m)", drift))
+    out.append(
+        (
+            plots.curves_figure(
+                here / "curves.png",
+                curve_panels,
+                title="Clearance to the nearest obstacle, and odometric drift (thin: seeds)",
+            ),
+            "Clearance (distance to the nearest obstacle minus the robot's radius; below 0: "
+            "collision) and the distance between the true and odometric positions, over time",
+        )
+    )
+    return out
