@@ -19,12 +19,10 @@ from flylog.experiments.common import (
     Progress,
     Steps,
     Table,
-    discard_logs,
     experiment_dir,
     spread,
-    write_results,
 )
-from flylog.experiments.markdown import write_summary
+from flylog.experiments.markdown import finish_experiment
 from flylog.experiments.runs import (
     fly_snapshots,
     score,
@@ -141,19 +139,17 @@ def run_closed_loop(
         "goal from the odometric position: drift can make the two differ); collisions: "
         "entries of the robot's disc into an obstacle's footprint (true trajectory)",
     ]
-    summary = write_summary(
+    return finish_experiment(
+        NAME,
         here,
+        options,
         title="Closed-loop obstacle avoidance (paper Fig. 7/8)",
         intro=__doc__ or "",
         table=table,
         findings=findings,
         figures=figures,
         setup=setup,
-    )
-    write_results(here, options, table, runs)
-    discard_logs(here, options)
-    return ExperimentResult(
-        NAME, table, summary, tuple(p for p, _ in figures), tuple(runs), tuple(findings)
+        runs=runs,
     )
 
 

@@ -32,12 +32,10 @@ from flylog.experiments.common import (
     Progress,
     Steps,
     Table,
-    discard_logs,
     experiment_dir,
     spread,
-    write_results,
 )
-from flylog.experiments.markdown import write_summary
+from flylog.experiments.markdown import finish_experiment
 from flylog.experiments.reaction import first_visible_frames, reaction_delays
 from flylog.experiments.runs import replay_and_score, simulate_scene
 from flylog.replay.config import ReplayConfig
@@ -165,19 +163,17 @@ def run_latency(
         f"{options.seeds} seeds (0…{options.seeds - 1}); latencies are pooled over every "
         "obstacle of every seed (median, mean); precision and recall mean ± std over seeds",
     ]
-    summary = write_summary(
+    return finish_experiment(
+        NAME,
         here,
+        options,
         title="Asynchronous versus synchronous detection (paper Table 1)",
         intro=__doc__ or "",
         table=table,
         findings=findings,
         figures=figures,
         setup=setup,
-    )
-    write_results(here, options, table, runs)
-    discard_logs(here, options)
-    return ExperimentResult(
-        NAME, table, summary, tuple(p for p, _ in figures), tuple(runs), tuple(findings)
+        runs=runs,
     )
 
 

@@ -1,11 +1,20 @@
-"""``summary.md``: an experiment's table, its measured findings and its figures."""
+"""``summary.md``: an experiment's table, its measured findings and its figures; and the
+common ending of every experiment (summary, results.json, logs dropped)."""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
-from flylog.experiments.common import Table, format_cell
+from flylog.experiments.common import (
+    ExperimentOptions,
+    ExperimentResult,
+    Table,
+    discard_logs,
+    format_cell,
+    write_results,
+)
 
 
 def markdown_table(table: Table) -> str:
@@ -42,3 +51,29 @@ def write_summary(
     out = directory / "summary.md"
     out.write_text("\n".join(lines))
     return out
+
+
+def finish_experiment(
+    name: str,
+    directory: Path,
+    options: ExperimentOptions,
+    *,
+    title: str,
+    intro: str,
+    table: Table,
+    findings: Sequence[str],
+    figures: Sequence[tuple[Path, str]],
+    setup: Sequence[str],
+    runs: Sequence[dict[str, Any]],
+) -> ExperimentResult:
+    """Write an experiment's summary.md and results.json, drop its logs unless kept, and
+    return its result: the common ending of every experiment."""
+    summary = write_summary(
+        directory, title=title, intro=intro, table=table, findings=findings, figures=figures,
+        setup=setup,
+    )  # fmt: skip
+    write_results(directory, options, table, runs)
+    discard_logs(directory, options)
+    return ExperimentResult(
+        name, table, summary, tuple(p for p, _ in figures), tuple(runs), tuple(findings)
+    )

@@ -17,12 +17,10 @@ from flylog.experiments.common import (
     Progress,
     Steps,
     Table,
-    discard_logs,
     experiment_dir,
     spread,
-    write_results,
 )
-from flylog.experiments.markdown import write_summary
+from flylog.experiments.markdown import finish_experiment
 from flylog.experiments.runs import (
     ScoredRun,
     fly_snapshots,
@@ -109,19 +107,17 @@ def run_proprioception(
         "metrics: `flylog metrics` definitions (obstacle flies, τ = 0.05), pooled over the "
         "snapshots of a run; the table gives mean ± standard deviation over seeds",
     ]
-    summary = write_summary(
+    return finish_experiment(
+        NAME,
         here,
+        options,
         title="Proprioception on and off (paper Fig. 4/5)",
         intro=__doc__ or "",
         table=table,
         findings=findings,
         figures=figures,
         setup=setup,
-    )
-    write_results(here, options, table, runs)
-    discard_logs(here, options)
-    return ExperimentResult(
-        NAME, table, summary, tuple(p for p, _ in figures), tuple(runs), tuple(findings)
+        runs=runs,
     )
 
 

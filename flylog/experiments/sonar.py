@@ -22,12 +22,10 @@ from flylog.experiments.common import (
     Progress,
     Steps,
     Table,
-    discard_logs,
     experiment_dir,
     spread,
-    write_results,
 )
-from flylog.experiments.markdown import write_summary
+from flylog.experiments.markdown import finish_experiment
 from flylog.experiments.runs import (
     fly_snapshots,
     left_image_at,
@@ -155,19 +153,17 @@ def run_sonar(
         "obstacle flies on its visible surface)",
         f"{options.seeds} seeds (0…{options.seeds - 1}); mean ± standard deviation over seeds",
     ]
-    summary = write_summary(
+    return finish_experiment(
+        NAME,
         here,
+        options,
         title="Sonar fusion on and off (paper Fig. 9)",
         intro=__doc__ or "",
         table=table,
         findings=findings,
         figures=figures,
         setup=setup,
-    )
-    write_results(here, options, table, runs)
-    discard_logs(here, options)
-    return ExperimentResult(
-        NAME, table, summary, tuple(p for p, _ in figures), tuple(runs), tuple(findings)
+        runs=runs,
     )
 
 
