@@ -24,7 +24,7 @@ test: lint
 	$(BIN)/python -m pytest -q
 
 bench: $(STAMP)
-	$(BIN)/python -m benchmarks
+	$(BIN)/python -m tests.benchmarks
 
 experiments: $(STAMP)
 	$(BIN)/flylog experiment all -o docs/experiments

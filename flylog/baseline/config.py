@@ -90,7 +90,7 @@ class SgbmConfig:
         0.050,
         help="virtual time one frame costs replay's clock (a configured number so runs stay "
         "deterministic): a whole SgbmEngine.step on 640×480 with these defaults, measured on "
-        "the 2-core development machine by benchmarks/bench_baseline.py (median 50–52 ms in "
+        "the 2-core development machine by tests/benchmarks/bench_baseline.py (median 50–52 ms in "
         "three runs, 60 ms in a busier one; StereoSGBM.compute alone 41–43 ms); scale it "
         "with W·H·num_disparities for other sizes",
         unit="s",

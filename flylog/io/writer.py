@@ -48,7 +48,7 @@ class LogConfig:
     """How logs are written."""
 
     # lz4 keeps the simulator above 30 stereo pairs/s even on one core: on its 640×480
-    # frames (benchmarks/bench_simulate.py) simulate runs at ~34 pairs/s single-threaded
+    # frames (tests/benchmarks/bench_simulate.py) simulate runs at ~34 pairs/s single-threaded
     # with lz4 (logs 0.35–0.40 of raw), ~29 with zstd level 3, mcap's (0.21–0.24 of raw,
     # ~4–5 ms more a pair); reading back is about as fast for both (~300 pairs/s).
     compression: Compression = param(

@@ -9,7 +9,7 @@ import sys
 import time
 from pathlib import Path
 
-import benchmarks
+from tests import benchmarks
 
 
 def main(argv: list[str]) -> int:
@@ -22,7 +22,7 @@ def main(argv: list[str]) -> int:
         names = [n for n in names if any(a in n for a in argv)]
     results: list[dict] = []
     for name in names:
-        module = importlib.import_module(f"benchmarks.{name}")
+        module = importlib.import_module(f"tests.benchmarks.{name}")
         t0 = time.perf_counter()
         figures = module.run(out_dir)
         print(f"== {name} ({time.perf_counter() - t0:.1f} s)")
