@@ -8,7 +8,6 @@ from pathlib import Path
 
 import numpy as np
 
-from flylog.config import replace_dotted
 from flylog.experiments import plots
 from flylog.experiments.common import (
     Column,
@@ -25,31 +24,18 @@ from flylog.experiments.runs import (
     ScoredRun,
     fly_snapshots,
     left_image_at,
+    one_generation_per_frame,
     replay_and_score,
     simulate_scene,
     to_world,
     true_poses_at,
     with_flies,
 )
-from flylog.replay.config import ReplayConfig
 
 NAME = "proprioception"
 SCENE = "turn"
 FRAME_STEP = 5  # frames N and N + 5, as the paper's figures
 CONFIGS = {"with proprioception": True, "without proprioception": False}
-
-
-def config_for(proprioception: bool, seed: int, frame_rate: float) -> ReplayConfig:
-    """One generation per frame (the paper's set-up) and a snapshot per frame."""
-    return replace_dotted(
-        ReplayConfig(),
-        {
-            "seed": seed,
-            "generations_per_frame": 1,
-            "snapshot_rate": frame_rate,
-            "engine.proprioception": proprioception,
-        },
-    )
 
 
 def run_proprioception(
@@ -70,7 +56,9 @@ def run_proprioception(
         log = simulate_scene(options, SCENE, seed, here / "runs" / f"turn_s{seed}.mcap", duration)
         steps.step()
         for label, on in CONFIGS.items():
-            config = with_flies(config_for(on, seed, frame_rate), options)
+            config = with_flies(
+                one_generation_per_frame(seed, frame_rate, {"proprioception": on}), options
+            )
             tag = "on" if on else "off"
             scored = replay_and_score(log, here / "runs" / f"turn_s{seed}_{tag}.mcap", config)
             s = scored.summary

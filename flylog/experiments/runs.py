@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from flylog.config import replace_dotted
 from flylog.experiments.common import ExperimentOptions
 from flylog.replay.config import ReplayConfig
 
@@ -51,9 +52,21 @@ def simulate_scene(
     return output
 
 
-def with_flies(config: ReplayConfig, options: ExperimentOptions) -> ReplayConfig:
-    from flylog.config import replace_dotted
+def one_generation_per_frame(
+    seed: int, frame_rate: float, switches: dict[str, bool]
+) -> ReplayConfig:
+    """The paper's set-up: one generation per frame, a snapshot per frame, the engine's
+    ``switches`` (e.g. ``{"proprioception": False}``) applied to the defaults."""
+    overrides: dict[str, object] = {
+        "seed": seed,
+        "generations_per_frame": 1,
+        "snapshot_rate": frame_rate,
+    }
+    overrides.update({f"engine.{name}": on for name, on in switches.items()})
+    return replace_dotted(ReplayConfig(), overrides)
 
+
+def with_flies(config: ReplayConfig, options: ExperimentOptions) -> ReplayConfig:
     return replace_dotted(config, {"engine.flies": options.flies})
 
 

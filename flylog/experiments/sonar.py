@@ -12,7 +12,6 @@ from pathlib import Path
 
 import numpy as np
 
-from flylog.config import replace_dotted
 from flylog.experiments import plots
 from flylog.experiments.common import (
     Column,
@@ -29,31 +28,18 @@ from flylog.experiments.markdown import finish_experiment
 from flylog.experiments.runs import (
     fly_snapshots,
     left_image_at,
+    one_generation_per_frame,
     replay_and_score,
     simulate_scene,
     to_world,
     true_poses_at,
     with_flies,
 )
-from flylog.replay.config import ReplayConfig
 
 NAME = "sonar"
 SCENE = "near-obstacle"
 CONFIGS = {"with sonar fusion": True, "without sonar fusion": False}
 ON_POST = 0.1  # m: an obstacle fly within this 2-D distance of the post's footprint is on it
-
-
-def config_for(fusion: bool, seed: int, frame_rate: float) -> ReplayConfig:
-    return replace_dotted(
-        ReplayConfig(),
-        {
-            "seed": seed,
-            "generations_per_frame": 1,
-            "snapshot_rate": frame_rate,
-            "engine.sonar_fitness": fusion,
-            "engine.sonar_immigration": fusion,
-        },
-    )
 
 
 def nearest_obstacle(scene) -> int:
@@ -115,7 +101,12 @@ def run_sonar(
         log = simulate_scene(options, SCENE, seed, here / "runs" / f"near_s{seed}.mcap", duration)
         steps.step()
         for label, on in CONFIGS.items():
-            config = with_flies(config_for(on, seed, frame_rate), options)
+            config = with_flies(
+                one_generation_per_frame(
+                    seed, frame_rate, {"sonar_fitness": on, "sonar_immigration": on}
+                ),
+                options,
+            )
             run = here / "runs" / f"near_s{seed}_{'on' if on else 'off'}.mcap"
             scored = replay_and_score(log, run, config)
             t, on_post, total = post_counts(scene, post, run, log)
