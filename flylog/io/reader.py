@@ -23,6 +23,7 @@ from flylog.errors import LogError
 from flylog.io import contract
 from flylog.io.decode import DECODERS
 from flylog.io.pairing import pair_stereo
+from flylog.io.readahead import read_ahead as read_ahead_of
 from flylog.io.records import LogAttachment, LogMessage, TopicInfo
 from flylog.io.scan import (
     MAGIC,
@@ -167,6 +168,14 @@ class LogReader:
     def raw_messages(self, topics: Iterable[str] | None = None) -> Iterator[RawMessage]:
         """Undecoded messages in log-time order (a TruncatedLogWarning at the end if the log
         is damaged)."""
+        damage: list[str] = []
+        yield from self._raw(topics, damage)
+        for msg in damage:
+            warnings.warn(msg, TruncatedLogWarning, stacklevel=3)
+
+    def _raw(self, topics: Iterable[str] | None, damage: list[str]) -> Iterator[RawMessage]:
+        """:meth:`raw_messages` that appends the damage report to ``damage`` instead of
+        warning (warnings are process-wide: a reading thread must not issue them)."""
         wanted = None if topics is None else frozenset(topics)
         with self.path.open("rb") as fh:
             if self._summary is not None:
@@ -189,17 +198,26 @@ class LogReader:
                 yield raw
         if state.damage is not None:
             which = "" if wanted is None else f" on {', '.join(sorted(wanted))}"
-            msg = (
+            damage.append(
                 f"{self.path}: the log is truncated or unfinished ({state.damage}); "
                 f"recovered {count} intact messages{which}"
             )
-            warnings.warn(msg, TruncatedLogWarning, stacklevel=3)
 
-    def messages(self, topics: Iterable[str] | None = None) -> Iterator[LogMessage]:
-        """Messages in log-time order, each decoded into plain values by its schema."""
+    def messages(
+        self, topics: Iterable[str] | None = None, *, read_ahead: int = 0
+    ) -> Iterator[LogMessage]:
+        """Messages in log-time order, each decoded into plain values by its schema.
+
+        With ``read_ahead`` > 0, a background thread reads, decompresses and decodes up to
+        that many messages ahead of the consumer (see :mod:`flylog.io.readahead`)."""
         decode = _Decoding(self.path)
-        for raw in self.raw_messages(topics):
-            yield decode(raw)
+        damage: list[str] = []
+        decoded = (decode(raw) for raw in self._raw(topics, damage))
+        if read_ahead > 0:
+            decoded = read_ahead_of(decoded, read_ahead)
+        yield from decoded
+        for msg in damage:
+            warnings.warn(msg, TruncatedLogWarning, stacklevel=2)
 
     def stereo_pairs(self, *, tolerance_ns: int = 5_000_000) -> Iterator[StereoPair]:
         """The log's stereo pairs, streamed (see ``pair_stereo``)."""

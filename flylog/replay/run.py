@@ -22,6 +22,10 @@ from flylog.replay.config import ReplayConfig
 from flylog.replay.inputs import SENSOR_TOPICS, replay_inputs
 from flylog.replay.pipeline import PLANNER_TICK, SNAPSHOT_TICK, FlyPipeline
 
+# Messages decoded ahead of the replay by a reading thread: about ten frames of stereo pairs
+# (≈ 20 MB at 640×480), enough to hide a chunk's decompression behind the engine's work.
+READ_AHEAD_MESSAGES = 64
+
 _F, _I, _S = pa.float64(), pa.int64(), pa.string()
 
 # RUN.parquet: one row per planner tick (the README's table is made from this).
@@ -102,7 +106,8 @@ def replay(
                 config, inputs.rig, inputs.start, inputs.goal, out.write, on_row=rows.append
             )
             clock = VirtualClock(pipeline, clock_config(config, inputs.frame_period_ns))
-            for message in pair_stereo(reader.messages(SENSOR_TOPICS)):
+            messages = reader.messages(SENSOR_TOPICS, read_ahead=READ_AHEAD_MESSAGES)
+            for message in pair_stereo(messages):
                 clock.feed(message.value)
                 if on_progress is not None:
                     on_progress((message.log_time_ns - inputs.start_ns) / 1e9, duration)
