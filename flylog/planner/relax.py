@@ -20,26 +20,84 @@ SweepFn = Callable[[np.ndarray, np.ndarray, float, int], float]
 
 
 @numba.njit(cache=True, nogil=True)
+def _split_colours(u, fixed, red, black, red_free, black_free):  # pragma: no cover - compiled
+    """Copy ``u`` into its red cells (row i, column 2m + i % 2 → red[i, m]) and black cells
+    (column 2m + 1 − i % 2 → black[i, m]); ``*_free`` is 1.0 where a cell may be written
+    (not fixed, not on the border) and 0.0 elsewhere."""
+    h, w = u.shape
+    for i in range(h):
+        for j in range(w):
+            writable = not (fixed[i, j] or i == 0 or i == h - 1 or j == 0 or j == w - 1)
+            if j % 2 == i % 2:
+                red[i, j // 2] = u[i, j]
+                red_free[i, j // 2] = 1.0 if writable else 0.0
+            else:
+                black[i, j // 2] = u[i, j]
+                black_free[i, j // 2] = 1.0 if writable else 0.0
+
+
+@numba.njit(cache=True, nogil=True)
+def _merge_colours(u, red, black):  # pragma: no cover - compiled
+    h, w = u.shape
+    for i in range(h):
+        for j in range(w):
+            u[i, j] = red[i, j // 2] if j % 2 == i % 2 else black[i, j // 2]
+
+
+@numba.njit(cache=True, nogil=True)
+def _relax_row(x, y, free, omega, i, q, width, track, change):  # pragma: no cover - compiled
+    """Update the cells x[i, m] of one colour, at grid column 2m + q, from their four
+    neighbours of the other colour y: y[i ± 1, m] above and below, y[i, m + q − 1] and
+    y[i, m + q] left and right (``width``: the grid's columns). Returns the largest |change|
+    so far if ``track``.
+
+    Indices are unsigned so numba emits no negative-index test and LLVM vectorises."""
+    up, down, side, row, writable = y[i - 1], y[i + 1], y[i], x[i], free[i]
+    lo = np.uint64(1 - q)  # first m whose column 2m + q is >= 1
+    hi = np.uint64((width - 2 - q) // 2 + 1)  # past the last m whose column is <= width - 2
+    left, right = np.uint64(q) - np.uint64(1), np.uint64(q)
+    if track:
+        for m in range(lo, hi):
+            avg = 0.25 * (((up[m] + down[m]) + side[m + left]) + side[m + right])
+            d = omega * (avg - row[m]) * writable[m]
+            row[m] += d
+            change = max(change, abs(d))
+    else:
+        for m in range(lo, hi):
+            avg = 0.25 * (((up[m] + down[m]) + side[m + left]) + side[m + right])
+            row[m] += omega * (avg - row[m]) * writable[m]
+    return change
+
+
+@numba.njit(cache=True, nogil=True)
 def sor_sweeps_numba(u: np.ndarray, fixed: np.ndarray, omega: float, sweeps: int) -> float:
     """Run ``sweeps`` red–black SOR sweeps on ``u`` (float64, in place); return the largest
-    absolute change made during the last sweep (0.0 if ``sweeps`` is 0)."""
+    absolute change made during the last sweep (0.0 if ``sweeps`` is 0).
+
+    The same arithmetic as :func:`sor_sweeps_numpy`, cell for cell, made fast by three
+    rearrangements that change no result: the two colours are stored apart (contiguous
+    rows, so the update vectorises); the black cells of row i − 1 are updated right after
+    the red cells of row i (they read only red rows i − 2 … i, all updated by then, and no
+    red cell reads them later in the sweep); a fixed cell's update is multiplied by 0.0
+    (it adds exactly 0) instead of skipped."""
     h, w = u.shape
+    if sweeps <= 0 or h < 3 or w < 3:
+        return 0.0
+    half = (w + 1) // 2
+    red, black = np.zeros((h, half)), np.zeros((h, half))
+    red_free, black_free = np.zeros((h, half)), np.zeros((h, half))
+    _split_colours(u, fixed, red, black, red_free, black_free)
     change = 0.0
-    for _ in range(sweeps):
-        change = 0.0
-        for colour in range(2):
-            for i in range(1, h - 1):
-                # first interior column j >= 1 with (i + j) % 2 == colour
-                start = 1 + (i + 1 + colour) % 2
-                for j in range(start, w - 1, 2):
-                    if fixed[i, j]:
-                        continue
-                    avg = 0.25 * (((u[i - 1, j] + u[i + 1, j]) + u[i, j - 1]) + u[i, j + 1])
-                    d = omega * (avg - u[i, j])
-                    u[i, j] += d
-                    ad = abs(d)
-                    if ad > change:
-                        change = ad
+    for sweep in range(sweeps):
+        track = sweep == sweeps - 1
+        for i in range(1, h):
+            if i < h - 1:
+                change = _relax_row(red, black, red_free, omega, i, i % 2, w, track, change)
+            if i >= 2:
+                k = i - 1
+                q = 1 - k % 2
+                change = _relax_row(black, red, black_free, omega, k, q, w, track, change)
+    _merge_colours(u, red, black)
     return change
 
 
