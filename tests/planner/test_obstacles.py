@@ -187,3 +187,13 @@ def test_robot_off_the_grid_sees_nothing_and_keeps_memory():
     far_away = Pose2D(50.0, 0.0, math.pi)
     p.update_obstacles(_cluster(2.05, 1.05, 10), far_away, FOV, view_range=3.0)
     assert np.count_nonzero(p.detected_mask) == 1
+
+
+@pytest.mark.parametrize("radius", [0.0, 1.0, 2.5, 3.0, 4.2])
+def test_distance_within_equals_its_numpy_reference(radius):
+    rng = np.random.default_rng(round(radius * 10))
+    mask = rng.random((37, 29)) < 0.04
+    mask[0, 0] = mask[-1, -1] = True  # stamps clipped at the corners
+    np.testing.assert_array_equal(
+        obs.distance_within(mask, radius), obs.distance_within_numpy(mask, radius)
+    )
