@@ -27,9 +27,9 @@ from flylog.planner.steering import (
     PlannedPath,
     ProgressMonitor,
     Status,
-    descend,
     unicycle_command,
 )
+from flylog.planner.trace import descend_on_grid
 
 
 class RelaxEnd(enum.Enum):
@@ -243,11 +243,12 @@ class HarmonicPlanner:
         """Gradient descent from the robot (bounded by ``path_max_steps``), and why it
         ended."""
         cfg = self.config
-        return descend(
+        return descend_on_grid(
+            self._gradients(),
+            self._obstacles,
+            self.geometry,
             (robot_pose.x, robot_pose.y),
             self.goal,
-            self.gradient,
-            self._blocked,
             step=cfg.path_step,
             max_steps=cfg.path_max_steps,
             goal_tolerance=cfg.goal_tolerance,
@@ -304,9 +305,3 @@ class HarmonicPlanner:
         if self._grad_cache is None:
             self._grad_cache = gradient_field(self._u, self.geometry.cell_size)
         return self._grad_cache
-
-    def _blocked(self, x: float, y: float) -> bool | None:
-        if not self.geometry.contains(x, y):
-            return None
-        i, j = self.geometry.cell_of(x, y)
-        return bool(self._obstacles[i, j])
