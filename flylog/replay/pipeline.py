@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass
 from typing import Any, Protocol
 
 import numpy as np
@@ -27,6 +29,26 @@ Write = Callable[[str, int, Any], None]
 
 PLANNER_TICK = "planner"
 SNAPSHOT_TICK = "snapshot"
+
+
+@dataclass(frozen=True)
+class _TickInputs:
+    """What a planner tick at ``t_ns`` sees, captured at that virtual time."""
+
+    t_ns: int
+    population: Population | None  # the newest published (an immutable copy)
+    published_pose: Pose2D  # odometry the population is expressed at
+    image_stamp_ns: int  # stamp of the images it was scored on (-1: none yet)
+    generation: int
+    evaluations: int
+    odom: OdomReading  # the newest odometry delivered
+
+
+@dataclass(frozen=True)
+class _TickResult:
+    t_ns: int
+    command: Command
+    row: dict[str, Any] | None  # the per-step table's row, if one is kept
 
 
 class StereoEngine(Protocol):
@@ -60,6 +82,14 @@ class FlyPipeline:
     ``write(topic, t_ns, message)`` receives every output message; ``on_row`` one row of the
     per-step table per planner tick. ``write_tf`` is off in the closed loop, where the
     simulator already writes odom → base_link.
+
+    With ``planner_thread``, each planner tick runs on a worker thread while the engine goes
+    on (replay: the planner does not feed back into the engine). The tick's inputs are
+    taken at its virtual time, so results are the same as without the thread; its outputs
+    are written before anything later (the next tick, a snapshot, :meth:`flush`), so the
+    output is identical message for message. :attr:`command` is then the newest *settled*
+    command: the closed loop, which needs each command at once, runs without the thread.
+    Call :meth:`flush` when the clock has finished, and :meth:`close` in any case.
     """
 
     def __init__(
@@ -72,6 +102,7 @@ class FlyPipeline:
         *,
         write_tf: bool = True,
         on_row: Callable[[dict[str, Any]], None] | None = None,
+        planner_thread: bool = False,
     ) -> None:
         self.config = config
         self.rig = rig
@@ -93,6 +124,8 @@ class FlyPipeline:
         self._evaluations = 0
         self.command = Command(0.0, 0.0, Status.DRIVING)
         self.snapshots = 0
+        self._worker = ThreadPoolExecutor(1, "flylog-planner") if planner_thread else None
+        self._pending_tick: Future[_TickResult] | None = None
 
     # --- the clock's Pipeline protocol -----------------------------------------------------
 
@@ -134,57 +167,87 @@ class FlyPipeline:
 
     # --- planner ---------------------------------------------------------------------------
 
-    def obstacle_flies(self) -> np.ndarray:
-        """(M, 3) obstacle flies of the published population, in base_link at its pose."""
-        pop = self._published
-        if pop is None:
-            return np.empty((0, 3))
-        return pop.xyz[self.config.obstacles.mask(pop.xyz, pop.fitness, pop.age)]
-
     def _planner_tick(self, t_ns: int) -> None:
-        obstacles = self.obstacle_flies()
-        if self._published is not None:
-            in_odom = transform_points_2d(self._published_pose, obstacles[:, :2])
-            self.planner.update_obstacles(in_odom, self._published_pose, self.rig.half_fov)
+        self.flush()
+        tick = _TickInputs(
+            t_ns,
+            self._published,
+            self._published_pose,
+            self._published_image_ns,
+            self._published_generation,
+            self._evaluations,
+            self._odom,
+        )
+        if self._worker is None:
+            self._settle(self._run_tick(tick))
+        else:
+            self._pending_tick = self._worker.submit(self._run_tick, tick)
+
+    def flush(self) -> None:
+        """Write what the planner tick running on the worker thread produced (if any)."""
+        if self._pending_tick is not None:
+            pending, self._pending_tick = self._pending_tick, None
+            self._settle(pending.result())
+
+    def close(self) -> None:
+        """Stop the planner's worker thread (after :meth:`flush`, or to abandon a run)."""
+        if self._worker is not None:
+            self._worker.shutdown(wait=True, cancel_futures=True)
+            self._worker = None
+            self._pending_tick = None
+
+    def _run_tick(self, tick: _TickInputs) -> _TickResult:
+        """The planner's work at one tick: obstacles in, relaxation, command, table row."""
+        pop = tick.population
+        if pop is None:
+            obstacles = np.empty((0, 3))
+        else:
+            obstacles = pop.xyz[self.config.obstacles.mask(pop.xyz, pop.fitness, pop.age)]
+            in_odom = transform_points_2d(tick.published_pose, obstacles[:, :2])
+            self.planner.update_obstacles(in_odom, tick.published_pose, self.rig.half_fov)
         change = self.planner.relax()
-        pose = self._odom.pose
-        self.command = self.planner.command(pose, t_ns / 1e9)
-        status = contract.CommandStatus(self.command.status.value)
+        pose, t_ns = tick.odom.pose, tick.t_ns
+        command = self.planner.command(pose, t_ns / 1e9)
+        if self._on_row is None:
+            return _TickResult(t_ns, command, None)
+        valid = pop.fitness[pop.fitness > 0] if pop is not None else np.empty(0)
+        row = {
+            "t": t_ns / 1e9,
+            "generation": tick.generation,
+            "evaluations": tick.evaluations,
+            "valid_flies": len(valid),
+            "obstacle_flies": len(obstacles),
+            "best_fitness": float(valid.max()) if len(valid) else math.nan,
+            "median_fitness": float(np.median(valid)) if len(valid) else math.nan,
+            "image_latency": (t_ns - tick.image_stamp_ns) / 1e9
+            if tick.image_stamp_ns >= 0
+            else math.nan,
+            "odom_latency": (t_ns - tick.odom.stamp_ns) / 1e9,
+            "x": pose.x,
+            "y": pose.y,
+            "theta": pose.theta,
+            "linear": command.linear,
+            "angular": command.angular,
+            "status": command.status.value,
+            "potential_change": change,
+        }
+        return _TickResult(t_ns, command, row)
+
+    def _settle(self, result: _TickResult) -> None:
+        self.command = command = result.command
+        status = contract.CommandStatus(command.status.value)
         self._write(
             contract.PLANNER_COMMAND,
-            t_ns,
-            encode.command(self.command.linear, self.command.angular, status, t_ns),
+            result.t_ns,
+            encode.command(command.linear, command.angular, status, result.t_ns),
         )
-        if self._on_row is None:
-            return
-        pop = self._published
-        valid = pop.fitness[pop.fitness > 0] if pop is not None else np.empty(0)
-        self._on_row(
-            {
-                "t": t_ns / 1e9,
-                "generation": self._published_generation,
-                "evaluations": self._evaluations,
-                "valid_flies": len(valid),
-                "obstacle_flies": len(obstacles),
-                "best_fitness": float(valid.max()) if len(valid) else math.nan,
-                "median_fitness": float(np.median(valid)) if len(valid) else math.nan,
-                "image_latency": (t_ns - self._published_image_ns) / 1e9
-                if self._published_image_ns >= 0
-                else math.nan,
-                "odom_latency": (t_ns - self._odom.stamp_ns) / 1e9,
-                "x": pose.x,
-                "y": pose.y,
-                "theta": pose.theta,
-                "linear": self.command.linear,
-                "angular": self.command.angular,
-                "status": status.value,
-                "potential_change": change,
-            }
-        )
+        if self._on_row is not None and result.row is not None:
+            self._on_row(result.row)
 
     # --- snapshots -------------------------------------------------------------------------
 
     def _snapshot(self, t_ns: int) -> None:
+        self.flush()
         self.snapshots += 1
         pop = self._published
         if pop is not None:

@@ -103,15 +103,25 @@ def replay(
     try:
         with LogWriter(output) as out, TableWriter(table, schema(STEP_COLUMNS)) as rows:
             pipeline = FlyPipeline(
-                config, inputs.rig, inputs.start, inputs.goal, out.write, on_row=rows.append
+                config,
+                inputs.rig,
+                inputs.start,
+                inputs.goal,
+                out.write,
+                on_row=rows.append,
+                planner_thread=True,
             )
-            clock = VirtualClock(pipeline, clock_config(config, inputs.frame_period_ns))
-            messages = reader.messages(SENSOR_TOPICS, read_ahead=READ_AHEAD_MESSAGES)
-            for message in pair_stereo(messages):
-                clock.feed(message.value)
-                if on_progress is not None:
-                    on_progress((message.log_time_ns - inputs.start_ns) / 1e9, duration)
-            stats = clock.finish(inputs.end_ns)
+            try:
+                clock = VirtualClock(pipeline, clock_config(config, inputs.frame_period_ns))
+                messages = reader.messages(SENSOR_TOPICS, read_ahead=READ_AHEAD_MESSAGES)
+                for message in pair_stereo(messages):
+                    clock.feed(message.value)
+                    if on_progress is not None:
+                        on_progress((message.log_time_ns - inputs.start_ns) / 1e9, duration)
+                stats = clock.finish(inputs.end_ns)
+                pipeline.flush()
+            finally:
+                pipeline.close()
             wall = time.perf_counter() - t0
             out.add_metadata(
                 contract.REPLAY_METADATA,

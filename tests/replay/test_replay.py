@@ -195,3 +195,38 @@ def test_help_defaults_match_the_configuration():
     assert f"[default: {cfg.generations_per_frame}]" in text
     assert f"[default: {cfg.evals_per_second:.0f}]" in text
     assert f"[default: {cfg.snapshot_rate:g} Hz]" in text
+
+
+def _pipeline_outputs(planner_thread: bool) -> tuple[list, list]:
+    """Every message and table row of a replay of CORRIDOR, run through the pipeline."""
+    from flylog.io.pairing import pair_stereo
+    from flylog.replay.clock import VirtualClock
+    from flylog.replay.inputs import SENSOR_TOPICS, replay_inputs
+    from flylog.replay.pipeline import FlyPipeline
+    from flylog.replay.run import clock_config
+
+    reader = open_log(CORRIDOR)
+    inputs = replay_inputs(reader, goal=None)
+    written, rows = [], []
+
+    def write(topic, t_ns, message):
+        data = message.encode() if hasattr(message, "encode") else json.dumps(message)
+        written.append((topic, t_ns, data))
+
+    pipeline = FlyPipeline(
+        SMALL, inputs.rig, inputs.start, inputs.goal, write,
+        on_row=rows.append, planner_thread=planner_thread,
+    )  # fmt: skip
+    clock = VirtualClock(pipeline, clock_config(SMALL, inputs.frame_period_ns))
+    for message in pair_stereo(reader.messages(SENSOR_TOPICS)):
+        clock.feed(message.value)
+    clock.finish(inputs.end_ns)
+    pipeline.flush()
+    pipeline.close()
+    return written, [{k: ("nan" if v != v else v) for k, v in r.items()} for r in rows]
+
+
+def test_planner_on_its_own_thread_changes_no_output():
+    inline, threaded = _pipeline_outputs(False), _pipeline_outputs(True)
+    assert len(inline[0]) > 50 and len(inline[1]) == 21
+    assert threaded == inline
