@@ -37,7 +37,6 @@ import numpy as np
 from flylog.baseline.config import SgbmConfig, SgbmMode
 from flylog.errors import FlylogError
 from flylog.fly.engine import GenerationStats
-from flylog.fly.fitness import INVALID_FITNESS
 from flylog.fly.fusion import moved_by_odometry
 from flylog.fly.population import Population
 from flylog.geometry import Pose2D, StereoRig, compose
@@ -226,9 +225,6 @@ class SgbmEngine:
             offspring=0,
             immigrants=0,
             sonar_immigrants=0,
-            valid_flies=n,
-            best_fitness=float(fitness.max()) if n else INVALID_FITNESS,
-            median_fitness=float(np.median(fitness)) if n else INVALID_FITNESS,
         )
 
 

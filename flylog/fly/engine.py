@@ -33,16 +33,14 @@ from flylog.fly.fusion import (
 from flylog.fly.operators import (
     NeighbourCounter,
     neighbour_counts_numpy,
-    offspring,
+    newcomer_constants,
+    newcomers_into,
+    newcomers_numpy,
     shared_fitness,
-    shared_fitness_numba,
     survivor_indices,
-    survivor_indices_numba,
 )
 from flylog.fly.population import (
     Population,
-    fitness_summary_numba,
-    fitness_summary_numpy,
     random_flies,
     sharing_radius,
 )
@@ -52,7 +50,10 @@ from flylog.sensors import SonarReading, StereoPair
 
 @dataclass(frozen=True, slots=True)
 class GenerationStats:
-    """What one generation did; ``evaluations`` lets replay charge virtual time."""
+    """What one generation did; ``evaluations`` lets replay charge virtual time. The
+    population's fitness figures are :func:`flylog.fly.population.fitness_summary` of
+    :attr:`FlyEngine.population`, computed by whoever needs them (a median per generation
+    would cost more than the rest of these)."""
 
     generation: int
     evaluations: int
@@ -61,9 +62,6 @@ class GenerationStats:
     offspring: int
     immigrants: int
     sonar_immigrants: int
-    valid_flies: int
-    best_fitness: float
-    median_fitness: float  # over valid flies; INVALID_FITNESS if none
 
 
 class FlyEngine:
@@ -86,6 +84,8 @@ class FlyEngine:
         self._counter = NeighbourCounter()
         self._all = np.arange(config.flies, dtype=np.int64)
         self._newcomers = self._all[config.survivors :]
+        self._work = np.empty(2 * config.flies)  # selection's scratch
+        self._newcomer_k = newcomer_constants(rig, config.d_min, config.d_max, self._margin)
         self._left: np.ndarray | None = None
         self._right: np.ndarray | None = None
         self._stamp_ns = -1
@@ -148,38 +148,47 @@ class FlyEngine:
             raise FlylogError(msg)
         cfg = self.config
         pop = self._pop
-        stale = np.flatnonzero(pop.stale)
+        # after a step every fly is evaluated; new images or motion make them all stale
+        if pop.stale.all():
+            stale = self._all
+        else:
+            stale = np.flatnonzero(pop.stale) if pop.stale.any() else self._all[:0]
         evaluations = self._evaluate(stale)
         self._fuse(stale)
-        ranked = pop.fitness
-        if cfg.sharing and cfg.sharing_coefficient > 0:
-            ranked = self._shared(pop)
-        select = survivor_indices_numba if self._numba else survivor_indices
-        keep = select(ranked, cfg.survivors)
-        k = len(keep)
-        n_immigrants = cfg.immigrants
-        n_children = cfg.flies - k - n_immigrants
-        # random numbers in this order: sonar arcs, uniform immigrants, breeding
-        from_sonar = self._sonar_immigrants(n_immigrants)
-        uniform = self._random(n_immigrants - len(from_sonar))
+        sharing = cfg.sharing and cfg.sharing_coefficient > 0
+        counts = self._neighbour_counts(pop) if sharing else None
         nxt = self._spare
+        n_immigrants = cfg.immigrants
+        # random numbers in this order: sonar arcs, uniform immigrants, breeding
         if self._numba:
-            pop.survivors_into(keep, nxt)
-            parents = nxt.xyz[:k]  # the survivors, already gathered
-            children = nxt.xyz[k : k + n_children]
-            self._offspring(parents, n_children, out=children)
+            k = pop.select_into(nxt, cfg.survivors, counts, cfg.sharing_coefficient, self._work)
+            n_children = cfg.flies - k - n_immigrants
+            from_sonar = self._sonar_immigrants(n_immigrants)
             at = k + n_children
             nxt.xyz[at : at + len(from_sonar)] = from_sonar
-            nxt.xyz[at + len(from_sonar) :] = uniform
+            newcomers_into(
+                self._rng, nxt.xyz[:k], *self._breeding(), self._newcomer_k,
+                nxt.xyz[k:at], nxt.xyz[at + len(from_sonar) :],
+            )  # fmt: skip
         else:
-            children = self._offspring(pop.xyz[keep], n_children)
+            ranked = pop.fitness if counts is None else shared_fitness(
+                pop.fitness, counts, cfg.sharing_coefficient
+            )  # fmt: skip
+            keep = survivor_indices(ranked, cfg.survivors)
+            k = len(keep)
+            n_children = cfg.flies - k - n_immigrants
+            from_sonar = self._sonar_immigrants(n_immigrants)
+            rate2, rate3, sigma_px, sigma_d = self._breeding()
+            children, uniform = newcomers_numpy(
+                self._rng, pop.xyz[keep], n_children, n_immigrants - len(from_sonar), self.rig,
+                rate2=rate2, rate3=rate3, sigma_px=sigma_px, sigma_disparity_px=sigma_d,
+                d_min=cfg.d_min, d_max=cfg.d_max, margin=self._margin,
+            )  # fmt: skip
             pop.survivors_then(keep, np.concatenate([children, from_sonar, uniform]), out=nxt)
         self._pop, self._spare = nxt, pop
         evaluations += self._evaluate(self._newcomers)
         self._fuse(self._newcomers)
         self._generation += 1
-        summary = fitness_summary_numba if self._numba else fitness_summary_numpy
-        best, valid, median = summary(nxt.fitness)
         return GenerationStats(
             generation=self._generation,
             evaluations=evaluations,
@@ -188,9 +197,6 @@ class FlyEngine:
             offspring=n_children,
             immigrants=n_immigrants,
             sonar_immigrants=len(from_sonar),
-            valid_flies=int(valid),
-            best_fitness=float(best),
-            median_fitness=float(median),
         )
 
     # --- internals --------------------------------------------------------------------------
@@ -201,21 +207,14 @@ class FlyEngine:
             self._rng, self.rig, n, d_min=cfg.d_min, d_max=cfg.d_max, margin=self._margin
         )
 
-    def _offspring(self, parents: np.ndarray, n: int, out: np.ndarray | None = None) -> np.ndarray:
+    def _breeding(self) -> tuple[float, float, float, float]:
+        """(rate2, rate3, σ_px, σ_disparity) of this configuration."""
         cfg = self.config
-        return offspring(
-            self._rng,
-            parents,
-            n,
-            self.rig,
-            rate2=cfg.crossover2_rate if cfg.crossover2 else 0.0,
-            rate3=cfg.crossover3_rate if cfg.crossover3 else 0.0,
-            sigma_px=cfg.mutation_scale * self._radius,
-            sigma_disparity_px=cfg.disparity_mutation_scale * self._radius,
-            d_min=cfg.d_min,
-            d_max=cfg.d_max,
-            use_numba=self._numba,
-            out=out,
+        return (
+            cfg.crossover2_rate if cfg.crossover2 else 0.0,
+            cfg.crossover3_rate if cfg.crossover3 else 0.0,
+            cfg.mutation_scale * self._radius,
+            cfg.disparity_mutation_scale * self._radius,
         )
 
     def _evaluate(self, index: np.ndarray) -> int:
@@ -261,17 +260,14 @@ class FlyEngine:
                 tolerance=cfg.sonar_tolerance, use_numba=False,
             )  # fmt: skip
 
-    def _shared(self, pop: Population) -> np.ndarray:
-        """The fitness after 2-D sharing in the left image (what selection ranks)."""
+    def _neighbour_counts(self, pop: Population) -> np.ndarray:
+        """Each valid fly's neighbours within R in the left image (what sharing needs)."""
         valid = pop.fitness > INVALID_FITNESS
-        k = self.config.sharing_coefficient
         if self._numba:
             u_left, v = left_projections_numba(pop.xyz, self._rig_constants)
-            counts = self._counter(u_left, v, valid, self._radius)
-            return shared_fitness_numba(pop.fitness, counts, k)
+            return self._counter(u_left, v, valid, self._radius)
         u_left, _, v, _ = self.rig.project(pop.xyz)
-        counts = neighbour_counts_numpy(u_left, v, valid, self._radius)
-        return shared_fitness(pop.fitness, counts, k)
+        return neighbour_counts_numpy(u_left, v, valid, self._radius)
 
     def _sonar_immigrants(self, n_immigrants: int) -> np.ndarray:
         cfg = self.config

@@ -5,33 +5,62 @@ Every operator takes its random numbers from the ``numpy.random.Generator`` pass
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numba
 import numpy as np
 
-from flylog.fly.sorting import median_in_place, smallest_stable_numba
+from flylog.fly.sorting import median_in_place, select_in_place
 from flylog.geometry import StereoRig
 
 
 def survivor_indices(shared_fitness: np.ndarray, keep: int) -> np.ndarray:
-    """Elitist, deterministic selection: the indices of the ``keep`` best flies, best first,
-    equal fitnesses in index order (so among equal flies at the cut the lowest indices stay)."""
-    score = -shared_fitness
-    if keep >= len(score):
-        return np.argsort(score, kind="stable")
-    cut = np.partition(score, keep - 1)[keep - 1]
-    better = np.flatnonzero(score < cut)
-    tied = np.flatnonzero(score == cut)[: keep - len(better)]
-    taken = np.concatenate([better, tied])
-    taken.sort()
-    return taken[np.argsort(score[taken], kind="stable")]
+    """Elitist, deterministic selection: the indices of the ``keep`` best flies, in index
+    order; among equal flies at the cut the lowest indices stay. Index order, not best first:
+    no sort is needed, and breeding picks parents uniformly, so their order does not matter."""
+    n = len(shared_fitness)
+    if keep >= n:
+        return np.arange(n)
+    if keep <= 0:
+        return np.empty(0, dtype=np.int64)
+    cut = np.partition(shared_fitness, n - keep)[n - keep]
+    taken = shared_fitness > cut
+    tied = np.flatnonzero(shared_fitness == cut)[: keep - int(np.count_nonzero(taken))]
+    taken[tied] = True
+    return np.flatnonzero(taken)
+
+
+@numba.njit(cache=True, nogil=True)
+def survivors_cut(score, keep, work):  # pragma: no cover - compiled
+    """(cut, ties): the ``keep`` flies :func:`survivor_indices` takes are those with
+    ``score > cut`` and the first ``ties`` with ``score == cut``; ``work`` (≥ N) is scratch.
+    Needs 0 < keep < N."""
+    n = score.shape[0]
+    for i in range(n):
+        work[i] = score[i]
+    cut = select_in_place(work[:n], n - keep)
+    above = 0
+    for i in range(n):
+        above += score[i] > cut
+    return cut, keep - above
 
 
 @numba.njit(cache=True, nogil=True)
 def survivor_indices_numba(shared_fitness, keep):  # pragma: no cover - compiled
-    """Same indices as :func:`survivor_indices`: the first ``keep`` of a stable sort."""
-    return smallest_stable_numba(-shared_fitness, keep)
+    """Same indices as :func:`survivor_indices`."""
+    n = shared_fitness.shape[0]
+    if keep >= n:
+        return np.arange(n)
+    if keep <= 0:
+        return np.empty(0, dtype=np.int64)
+    cut, ties = survivors_cut(shared_fitness, keep, np.empty(n))
+    out = np.empty(keep, dtype=np.int64)
+    t = 0
+    for i in range(n):
+        s = shared_fitness[i]
+        if s > cut or (s == cut and ties > 0):
+            ties -= s == cut
+            out[t] = i
+            t += 1
+    return out
 
 
 def neighbour_counts_numpy(
@@ -183,16 +212,26 @@ def shared_fitness(fitness: np.ndarray, counts: np.ndarray, coefficient: float) 
 
 
 @numba.njit(cache=True, nogil=True)
-def shared_fitness_numba(fitness, counts, coefficient):  # pragma: no cover - compiled
-    """Same values as :func:`shared_fitness`."""
-    out = fitness.copy()
-    positive = fitness[fitness > 0]
-    if positive.shape[0] == 0:
-        return out
-    step = coefficient * median_in_place(positive)
+def shared_fitness_into(fitness, counts, coefficient, work, out):  # pragma: no cover - compiled
+    """:func:`shared_fitness` written into ``out``; ``work`` (≥ N) is scratch."""
+    m = 0
     for i in range(fitness.shape[0]):
         if fitness[i] > 0:
-            out[i] = fitness[i] - step * counts[i]
+            work[m] = fitness[i]
+            m += 1
+    if m == 0:
+        out[:] = fitness
+        return
+    step = coefficient * median_in_place(work[:m])
+    for i in range(fitness.shape[0]):
+        out[i] = fitness[i] - step * counts[i] if fitness[i] > 0 else fitness[i]
+
+
+@numba.njit(cache=True, nogil=True)
+def shared_fitness_numba(fitness, counts, coefficient):  # pragma: no cover - compiled
+    """Same values as :func:`shared_fitness`."""
+    out = np.empty_like(fitness)
+    shared_fitness_into(fitness, counts, coefficient, np.empty_like(fitness), out)
     return out
 
 
@@ -254,35 +293,34 @@ def _crossover3_by(w: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -
     return lam * a + mu * b + (1.0 - lam - mu) * c
 
 
-@dataclass(frozen=True, slots=True)
-class BreedingDraws:
-    """Every random number one generation's offspring need, drawn in a fixed order so that
-    both implementations of :func:`offspring` build the same children."""
-
-    pick: np.ndarray  # (n, 3) int64: parents of each child
-    which: np.ndarray  # (n,) U[0, 1): < rate2 two-parent, < rate2 + rate3 three-parent
-    noise: np.ndarray  # (n, 3) N(0, 1): mutation in u, v, disparity
-    lam: np.ndarray  # (n2, 1) λ of the two-parent children, in child order
-    weights: np.ndarray  # (n3, 2) (λ, μ) of the three-parent children, in child order
-
-
-def breeding_draws(
-    rng: np.random.Generator, n_parents: int, n: int, rate2: float, rate3: float
-) -> BreedingDraws:
-    """The random numbers for ``n`` children of ``n_parents`` parents."""
-    pick = rng.integers(0, n_parents, (n, 3))
-    which = rng.random(n)
-    noise = rng.standard_normal((n, 3))
-    n2 = int(np.count_nonzero(which < rate2))
-    n3 = int(np.count_nonzero(which < rate2 + rate3)) - n2
-    lam = rng.random((n2, 1)) if n2 else np.empty((0, 1))
-    weights = _triangle_weights(rng, n3) if n3 else np.empty((0, 2))
-    return BreedingDraws(pick, which, noise, lam, weights)
+# --- one generation's newcomers -----------------------------------------------------------
+#
+# The random stream of a generation's newcomers, in this order (both implementations draw
+# exactly these numbers, so they build the same flies):
+#   uniform immigrants: u (n_u), v (n_u), inverse depth (n_u), as random_flies draws them;
+#   children: ``which`` (n) U[0, 1); the first parent (n), the second parent of every
+#   crossover child, the third parent of every three-parent child, each ⌊U·M⌋ in child
+#   order; 3 N(0, 1) per mutated child (u, v, disparity), in child order; λ per two-parent
+#   child, then (λ, μ) per three-parent child (folded into the triangle), in child order.
+# Only the numbers a child uses are drawn (5 per child at the default rates, not 7.3).
 
 
-def children_numpy(
+def _kinds(which: np.ndarray, rate2: float, rate3: float) -> tuple[np.ndarray, np.ndarray]:
+    two = which < rate2
+    three = (which >= rate2) & (which < rate2 + rate3)
+    return two, three
+
+
+def _parents_of(r: np.ndarray, m: int) -> np.ndarray:
+    """⌊r·M⌋, never M (r·M may round up to M for r just below 1)."""
+    return np.minimum((r * m).astype(np.int64), m - 1)
+
+
+def newcomers_numpy(
+    rng: np.random.Generator,
     parents: np.ndarray,
-    draws: BreedingDraws,
+    n_children: int,
+    n_uniform: int,
     rig: StereoRig,
     *,
     rate2: float,
@@ -291,90 +329,114 @@ def children_numpy(
     sigma_disparity_px: float,
     d_min: float,
     d_max: float,
-) -> np.ndarray:
-    """Reference: the children ``draws`` describe (mutation of the first parent, or one of
-    the two crossovers)."""
-    first = parents[draws.pick[:, 0]]
-    out = _mutated_by(draws.noise, first, rig, sigma_px, sigma_disparity_px, d_min, d_max)
-    two = draws.which < rate2
-    if two.any():
-        out[two] = _crossover2_by(draws.lam, first[two], parents[draws.pick[two, 1]])
-    three = (draws.which >= rate2) & (draws.which < rate2 + rate3)
-    if three.any():
-        out[three] = _crossover3_by(
-            draws.weights, first[three], parents[draws.pick[three, 1]],
-            parents[draws.pick[three, 2]],
-        )  # fmt: skip
-    return out
+    margin: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Reference: (children (n_children, 3), uniform immigrants (n_uniform, 3)) drawn in the
+    stream order above. A child is a mutation of one parent or one of the two crossovers."""
+    from flylog.fly.population import random_flies  # population imports this module
+
+    uniform = random_flies(rng, rig, n_uniform, d_min=d_min, d_max=d_max, margin=margin)
+    m = len(parents)
+    which = rng.random(n_children)
+    two, three = _kinds(which, rate2, rate3)
+    cross = two | three
+    mutate = ~cross
+    a = _parents_of(rng.random(n_children), m)
+    b = np.zeros(n_children, dtype=np.int64)
+    c = np.zeros(n_children, dtype=np.int64)
+    b[cross] = _parents_of(rng.random(int(cross.sum())), m)
+    c[three] = _parents_of(rng.random(int(three.sum())), m)
+    noise = rng.standard_normal((int(mutate.sum()), 3))
+    lam = rng.random((int(two.sum()), 1))
+    weights = rng.random((int(three.sum()), 2))
+    folded = weights.sum(axis=1) > 1.0
+    weights[folded] = 1.0 - weights[folded]
+    children = np.empty((n_children, 3))
+    children[mutate] = _mutated_by(
+        noise, parents[a[mutate]], rig, sigma_px, sigma_disparity_px, d_min, d_max
+    )
+    children[two] = _crossover2_by(lam, parents[a[two]], parents[b[two]])
+    children[three] = _crossover3_by(
+        weights, parents[a[three]], parents[b[three]], parents[c[three]]
+    )
+    return children, uniform
+
+
+def newcomer_constants(rig: StereoRig, d_min: float, d_max: float, margin: int) -> np.ndarray:
+    """What :func:`newcomers_into` needs of the rig and the search box, as one float64 array."""
+    fb = rig.focal_px * rig.baseline
+    return np.array(
+        [rig.focal_px, rig.cx, rig.cy, rig.baseline / 2.0, rig.mount_x, rig.mount_height,
+         fb / d_max, fb / d_min, margin, rig.width - 1 - margin, margin,
+         rig.height - 1 - margin, 1.0 / d_max, 1.0 / d_min],
+        dtype=np.float64,
+    )  # fmt: skip
 
 
 @numba.njit(cache=True, nogil=True)
-def _children_kernel(parents, pick, which, noise, lam, weights, rate2, rate3, k, sigmas, out):
-    """One pass over the children; ``k`` = (f, cx, cy, b/2, mount x, mount height, lowest
-    and highest disparity), ``sigmas`` = (σ_px, σ_disparity). Same arithmetic, in the same
-    order, as the numpy operators, so the results are bit-identical."""
-    f, cx, cy, half_b, mount_x, mount_h, lo, hi = k[0], k[1], k[2], k[3], k[4], k[5], k[6], k[7]
+def newcomers_into(
+    rng, parents, rate2, rate3, sigma_px, sigma_disparity_px, k, children, uniform
+):  # pragma: no cover - compiled
+    """Same flies as :func:`newcomers_numpy`, from the same draws, written into ``children``
+    and ``uniform`` (``k`` from :func:`newcomer_constants`); one pass per block of draws,
+    no allocation but two small scratch arrays."""
+    f, cx, cy, half_b, mount_x, mount_h = k[0], k[1], k[2], k[3], k[4], k[5]
+    lo, hi = k[6], k[7]
     fb = f * (2.0 * half_b)
-    n2 = 0
-    n3 = 0
-    for i in range(which.shape[0]):
+    # uniform immigrants: rng.uniform(low, high) is low + (high − low)·U
+    n_u = uniform.shape[0]
+    for j in range(3):
+        low, high = k[8 + 2 * j], k[9 + 2 * j]
+        for i in range(n_u):
+            uniform[i, j] = low + (high - low) * rng.random()
+    for i in range(n_u):
+        depth = 1.0 / uniform[i, 2]
+        u, v = uniform[i, 0], uniform[i, 1]
+        uniform[i, 0] = mount_x + depth
+        uniform[i, 1] = half_b - (u - cx) * depth / f
+        uniform[i, 2] = mount_h - (v - cy) * depth / f
+    n = children.shape[0]
+    m = parents.shape[0]
+    which = np.empty(n)
+    pick = np.empty((n, 3), dtype=np.int64)
+    for i in range(n):
+        which[i] = rng.random()
+    for j in range(3):
+        for i in range(n):
+            if j == 0 or (which[i] < rate2 + rate3 and (j == 1 or which[i] >= rate2)):
+                pick[i, j] = min(np.int64(rng.random() * m), m - 1)
+    for i in range(n):
+        if which[i] < rate2 + rate3:
+            continue
         a = pick[i, 0]
+        depth = parents[a, 0] - mount_x
+        safe = depth if depth > 1e-9 else 1e-9
+        u_left = cx - f * (parents[a, 1] - half_b) / safe
+        u_right = cx - f * (parents[a, 1] + half_b) / safe
+        v = cy - f * (parents[a, 2] - mount_h) / safe
+        n_u_, n_v, n_d = rng.standard_normal(), rng.standard_normal(), rng.standard_normal()
+        disparity = min(max(u_left - u_right + sigma_disparity_px * n_d, lo), hi)
+        z = fb / disparity
+        uu = u_left + sigma_px * n_u_
+        vv = v + sigma_px * n_v
+        children[i, 0] = mount_x + z
+        children[i, 1] = half_b - (uu - cx) * z / f
+        children[i, 2] = mount_h - (vv - cy) * z / f
+    for i in range(n):
         if which[i] < rate2:
-            b = pick[i, 1]
-            t = lam[n2, 0]
-            n2 += 1
+            a, b = pick[i, 0], pick[i, 1]
+            t = rng.random()
             for j in range(3):
-                out[i, j] = t * parents[a, j] + (1.0 - t) * parents[b, j]
-        elif which[i] < rate2 + rate3:
-            b, c = pick[i, 1], pick[i, 2]
-            t, m = weights[n3, 0], weights[n3, 1]
-            n3 += 1
+                children[i, j] = t * parents[a, j] + (1.0 - t) * parents[b, j]
+    for i in range(n):
+        if rate2 <= which[i] < rate2 + rate3:
+            a, b, c = pick[i, 0], pick[i, 1], pick[i, 2]
+            t, s = rng.random(), rng.random()
+            if t + s > 1.0:
+                t, s = 1.0 - t, 1.0 - s
             for j in range(3):
-                out[i, j] = t * parents[a, j] + m * parents[b, j] + (1.0 - t - m) * parents[c, j]
-        else:
-            depth = parents[a, 0] - mount_x
-            safe = depth if depth > 1e-9 else 1e-9
-            u_left = cx - f * (parents[a, 1] - half_b) / safe
-            u_right = cx - f * (parents[a, 1] + half_b) / safe
-            v = cy - f * (parents[a, 2] - mount_h) / safe
-            disparity = min(max(u_left - u_right + sigmas[1] * noise[i, 2], lo), hi)
-            z = fb / disparity
-            u = u_left + sigmas[0] * noise[i, 0]
-            vv = v + sigmas[0] * noise[i, 1]
-            out[i, 0] = mount_x + z
-            out[i, 1] = half_b - (u - cx) * z / f
-            out[i, 2] = mount_h - (vv - cy) * z / f
-
-
-def children_numba(
-    parents: np.ndarray,
-    draws: BreedingDraws,
-    rig: StereoRig,
-    *,
-    rate2: float,
-    rate3: float,
-    sigma_px: float,
-    sigma_disparity_px: float,
-    d_min: float,
-    d_max: float,
-    out: np.ndarray | None = None,
-) -> np.ndarray:
-    """Same children as :func:`children_numpy`, in one compiled pass (into ``out`` if given,
-    a C-contiguous (n, 3) float64 array)."""
-    fb = rig.focal_px * rig.baseline
-    k = np.array(
-        [rig.focal_px, rig.cx, rig.cy, rig.baseline / 2.0, rig.mount_x, rig.mount_height,
-         fb / d_max, fb / d_min],
-        dtype=np.float64,
-    )  # fmt: skip
-    if out is None:
-        out = np.empty((len(draws.which), 3))
-    _children_kernel(
-        np.ascontiguousarray(parents, dtype=np.float64), draws.pick, draws.which, draws.noise,
-        draws.lam, draws.weights, float(rate2), float(rate3), k,
-        np.array([sigma_px, sigma_disparity_px], dtype=np.float64), out,
-    )  # fmt: skip
-    return out
+                r = 1.0 - t - s
+                children[i, j] = t * parents[a, j] + s * parents[b, j] + r * parents[c, j]
 
 
 def offspring(
@@ -396,15 +458,17 @@ def offspring(
     ``rate3`` by three-parent crossover, the rest by mutation of one parent. Parents are
     drawn uniformly (with replacement) among the survivors. Written into ``out`` (n, 3) when
     given (C-contiguous float64 for the compiled path), which is returned."""
-    draws = breeding_draws(rng, len(parents), n, rate2, rate3)
-    options = dict(
-        rate2=rate2, rate3=rate3, sigma_px=sigma_px, sigma_disparity_px=sigma_disparity_px,
-        d_min=d_min, d_max=d_max,
-    )  # fmt: skip
-    if use_numba:
-        return children_numba(parents, draws, rig, **options, out=out)
-    children = children_numpy(parents, draws, rig, **options)
     if out is None:
-        return children
-    out[...] = children
+        out = np.empty((n, 3))
+    if use_numba:
+        newcomers_into(
+            rng, np.ascontiguousarray(parents, dtype=np.float64), float(rate2), float(rate3),
+            float(sigma_px), float(sigma_disparity_px),
+            newcomer_constants(rig, d_min, d_max, 0), out, np.empty((0, 3)),
+        )  # fmt: skip
+        return out
+    out[...], _ = newcomers_numpy(
+        rng, parents, n, 0, rig, rate2=rate2, rate3=rate3, sigma_px=sigma_px,
+        sigma_disparity_px=sigma_disparity_px, d_min=d_min, d_max=d_max, margin=0,
+    )  # fmt: skip
     return out

@@ -9,7 +9,7 @@ import numba
 import numpy as np
 
 from flylog.fly.fitness import INVALID_FITNESS
-from flylog.fly.sorting import median_in_place
+from flylog.fly.operators import shared_fitness_into, survivors_cut
 from flylog.geometry import StereoRig
 
 
@@ -77,56 +77,73 @@ class Population:
         out.age[k:] = 0
         return out
 
-    def survivors_into(self, keep: np.ndarray, out: Population) -> int:
-        """Compiled :meth:`survivors_then` without the newcomers' positions: the flies ``keep``
-        (one generation older) then fresh flies whose ``xyz`` the caller writes into
-        ``out.xyz[len(keep):]``. Returns ``len(keep)``."""
-        if len(out) != len(self) or out is self:
-            msg = "survivors_into needs another population of the same size"
+    def select_into(
+        self,
+        out: Population,
+        keep: int,
+        counts: np.ndarray | None,
+        coefficient: float,
+        work: np.ndarray,
+    ) -> int:
+        """Compiled selection and gather in one pass: the ``keep`` flies
+        :func:`~flylog.fly.operators.survivor_indices` takes on the shared fitness
+        (:func:`~flylog.fly.operators.shared_fitness` with ``counts``; the fitness itself when
+        ``counts`` is None), in index order, one generation older, then fresh flies whose
+        ``xyz`` the caller writes. ``work`` is (2N,) float64 scratch. Returns ``keep``."""
+        if len(out) != len(self) or out is self or len(work) < 2 * len(self):
+            msg = "select_into needs another population of the same size and 2N scratch"
             raise ValueError(msg)
-        _survivors_kernel(
-            keep, self.xyz, self.fitness, self.vision, self.stale, self.stamp_ns, self.age,
+        share = counts is not None
+        if counts is None:
+            counts = np.empty(0, dtype=np.int64)
+        return _select_kernel(
+            self.fitness, counts, float(coefficient), share, keep, work,
+            self.xyz, self.vision, self.stale, self.stamp_ns, self.age,
             out.xyz, out.fitness, out.vision, out.stale, out.stamp_ns, out.age,
         )  # fmt: skip
-        return len(keep)
 
 
 @numba.njit(cache=True, nogil=True)
-def _survivors_kernel(keep, xyz, fitness, vision, stale, stamp, age, oxyz, ofit, ovis, ostale,
-                      ostamp, oage):  # fmt: skip  # pragma: no cover - compiled
-    """The survivor rows of :meth:`Population.survivors_then` in one pass, newcomers marked
-    fresh (their ``xyz`` is left to the caller)."""
-    k = keep.shape[0]
-    for t in range(k):
-        i = keep[t]
-        oxyz[t, 0], oxyz[t, 1], oxyz[t, 2] = xyz[i, 0], xyz[i, 1], xyz[i, 2]
-        ofit[t] = fitness[i]
-        ovis[t] = vision[i]
-        ostale[t] = stale[i]
-        ostamp[t] = stamp[i]
-        oage[t] = age[i] + 1
-    for t in range(k, ofit.shape[0]):
-        ofit[t] = INVALID_FITNESS
-        ovis[t] = INVALID_FITNESS
-        ostale[t] = True
-        ostamp[t] = -1
-        oage[t] = 0
+def _select_kernel(fitness, counts, coefficient, share, keep, work, xyz, vision, stale, stamp,
+                   age, oxyz, ofit, ovis, ostale, ostamp, oage):  # fmt: skip  # pragma: no cover
+    """:meth:`Population.select_into`: shared fitness, the selection cut, then one gather."""
+    n = fitness.shape[0]
+    score = work[:n]
+    if share:
+        shared_fitness_into(fitness, counts, coefficient, work[n:], score)
+    else:
+        score[:] = fitness
+    everyone = keep >= n
+    cut, ties = np.inf, 0
+    if 0 < keep < n:
+        cut, ties = survivors_cut(score, keep, work[n:])
+    t = 0
+    for i in range(n):
+        s = score[i]
+        if everyone or s > cut or (s == cut and ties > 0):
+            ties -= s == cut
+            oxyz[t, 0], oxyz[t, 1], oxyz[t, 2] = xyz[i, 0], xyz[i, 1], xyz[i, 2]
+            ofit[t] = fitness[i]
+            ovis[t] = vision[i]
+            ostale[t] = stale[i]
+            ostamp[t] = stamp[i]
+            oage[t] = age[i] + 1
+            t += 1
+    for r in range(t, n):
+        ofit[r] = INVALID_FITNESS
+        ovis[r] = INVALID_FITNESS
+        ostale[r] = True
+        ostamp[r] = -1
+        oage[r] = 0
+    return t
 
 
-def fitness_summary_numpy(fitness: np.ndarray) -> tuple[float, int, float]:
+def fitness_summary(fitness: np.ndarray) -> tuple[float, int, float]:
     """(best, number valid, median of the valid) fitness; the median is INVALID_FITNESS
     when no fly is valid."""
     valid = fitness[fitness > INVALID_FITNESS]
     median = float(np.median(valid)) if len(valid) else INVALID_FITNESS
     return float(fitness.max()), len(valid), median
-
-
-@numba.njit(cache=True, nogil=True)
-def fitness_summary_numba(fitness):  # pragma: no cover - compiled
-    """Same as :func:`fitness_summary_numpy`."""
-    valid = fitness[fitness > INVALID_FITNESS]
-    median = median_in_place(valid) if valid.shape[0] else INVALID_FITNESS
-    return fitness.max(), valid.shape[0], median
 
 
 def sharing_radius(n_pixels: int, n_flies: int) -> float:

@@ -24,7 +24,7 @@ from flylog.fly.fitness import fitness_numba, fitness_numpy
 from flylog.geometry import StereoRig
 from flylog.sensors import SonarReading, StereoPair
 
-SCENE = Path(__file__).resolve().parents[1] / "fixtures" / "scenes" / "clutter.toml"
+SCENE = Path(__file__).resolve().parents[2] / "fixtures" / "scenes" / "clutter.toml"
 
 
 def _frame(rig: StereoRig) -> tuple[StereoPair, np.ndarray, SonarReading | None]:
@@ -186,14 +186,10 @@ def _generation_figures(pair, depth, reading, rig) -> list[dict]:
 _PROFILED = [
     ("fitness.py", "_fitness_serial"),
     ("operators.py", "neighbour_counts_into"),
-    ("operators.py", "breeding_draws"),
-    ("operators.py", "survivor_indices_numba"),
-    ("operators.py", "shared_fitness_numba"),
+    ("operators.py", "newcomers_into"),
+    ("population.py", "_select_kernel"),
     ("fusion.py", "sonar_fuse_into"),
     ("fusion.py", "sonar_immigrants"),
-    ("population.py", "fitness_summary_numba"),
-    ("population.py", "_survivors_kernel"),
-    ("operators.py", "_children_kernel"),
     ("engine.py", "step"),
 ]
 

@@ -1,16 +1,9 @@
 import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
 
 from flylog.fly.fitness import INVALID_FITNESS
-from flylog.fly.population import (
-    Population,
-    fitness_summary_numba,
-    fitness_summary_numpy,
-)
-
-SUMMARIES = [fitness_summary_numpy, fitness_summary_numba]
+from flylog.fly.operators import shared_fitness, survivor_indices
+from flylog.fly.population import Population, fitness_summary
 
 
 def _population(rng: np.random.Generator, n: int) -> Population:
@@ -41,32 +34,27 @@ def test_survivors_then_into_reused_arrays_equals_a_new_population():
     assert (expected.stamp_ns[3:] == -1).all()
 
 
-@pytest.mark.parametrize("summary", SUMMARIES)
-def test_fitness_summary_known_values(summary):
-    assert summary(np.array([INVALID_FITNESS, 3.0, 1.0, 2.0, 4.0])) == (4.0, 4, 2.5)
-    assert summary(np.array([INVALID_FITNESS, INVALID_FITNESS])) == (
+def test_fitness_summary_known_values():
+    assert fitness_summary(np.array([INVALID_FITNESS, 3.0, 1.0, 2.0, 4.0])) == (4.0, 4, 2.5)
+    assert fitness_summary(np.array([INVALID_FITNESS, INVALID_FITNESS])) == (
         INVALID_FITNESS, 0, INVALID_FITNESS,
     )  # fmt: skip
 
 
-@settings(max_examples=30, deadline=None)
-@given(st.integers(0, 2**32 - 1), st.integers(1, 300))
-def test_fitness_summary_kernel_equals_reference(seed, n):
-    rng = np.random.default_rng(seed)
-    fitness = np.where(rng.random(n) < 0.3, INVALID_FITNESS, rng.exponential(size=n))
-    assert fitness_summary_numba(fitness) == fitness_summary_numpy(fitness)
-
-
-def test_survivors_into_equals_survivors_then():
+@pytest.mark.parametrize("sharing", [False, True])
+def test_select_into_equals_selection_then_survivors_then(sharing):
     rng = np.random.default_rng(1)
-    pop = _population(rng, 50)
-    keep = rng.permutation(50)[:20]
-    newcomers = rng.normal(size=(30, 3))
-    expected = pop.survivors_then(keep, newcomers)
-    out = _population(rng, 50)
-    assert pop.survivors_into(keep, out) == 20
-    out.xyz[20:] = newcomers
+    pop = _population(rng, 200)
+    pop.fitness[:] = np.round(rng.normal(size=200), 1)  # ties, also at the cut
+    pop.fitness[rng.random(200) < 0.1] = INVALID_FITNESS
+    counts = rng.integers(0, 5, 200) if sharing else None
+    ranked = shared_fitness(pop.fitness, counts, 0.1) if sharing else pop.fitness
+    keep = survivor_indices(ranked, 120)
+    expected = pop.survivors_then(keep, np.zeros((80, 3)))
+    out = _population(rng, 200)
+    assert pop.select_into(out, 120, counts, 0.1, np.empty(400)) == 120
+    out.xyz[120:] = 0.0
     for field in ("xyz", "fitness", "vision", "stale", "stamp_ns", "age"):
         np.testing.assert_array_equal(getattr(out, field), getattr(expected, field), field)
     with pytest.raises(ValueError, match="same size"):
-        pop.survivors_into(keep, pop)
+        pop.select_into(pop, 120, counts, 0.1, np.empty(400))
