@@ -32,7 +32,7 @@ from flylog.sensors import StereoPair
 from flylog.sim.render import Renderer
 from flylog.sim.run import SimulationOptions, simulate
 
-SCENE = Path(__file__).resolve().parents[1] / "fixtures" / "scenes" / "corridor.toml"
+SCENE = Path(__file__).resolve().parents[2] / "fixtures" / "scenes" / "corridor.toml"
 LOG_SECONDS = 10.0
 REPEATS = 15
 

@@ -13,7 +13,7 @@ from flylog.scene import load_scene
 from flylog.sim.render import Renderer
 from flylog.sim.sonar import sonar_ranges
 
-FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "scenes"
+FIXTURES = Path(__file__).resolve().parents[2] / "fixtures" / "scenes"
 REAL_TIME_HZ = 15.0
 FRAMES = 60
 

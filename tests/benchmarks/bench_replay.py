@@ -22,7 +22,7 @@ from flylog.replay.run import replay
 from flylog.scene.load import load_scene
 from flylog.sim.run import SimulationOptions, simulate
 
-SCENES = Path(__file__).resolve().parents[1] / "fixtures" / "scenes"
+SCENES = Path(__file__).resolve().parents[2] / "fixtures" / "scenes"
 REFERENCE = ReplayConfig(generations_per_frame=10)
 VISIBLE_PIXELS = 400  # an obstacle has entered the view when this many left pixels see it
 

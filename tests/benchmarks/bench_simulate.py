@@ -17,7 +17,7 @@ from flylog.io.writer import Compression, LogConfig
 from flylog.scene import load_scene
 from flylog.sim.run import SimulationOptions, simulate
 
-FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "scenes"
+FIXTURES = Path(__file__).resolve().parents[2] / "fixtures" / "scenes"
 REAL_TIME_HZ = 15.0
 SECONDS = 6.0
 RESOLUTION = (640, 480)
