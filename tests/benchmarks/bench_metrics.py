@@ -24,7 +24,7 @@ from flylog.scene import load_scene
 from flylog.sim.render import Renderer
 from flylog.sim.run import SimulationOptions, simulate
 
-FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "scenes"
+FIXTURES = Path(__file__).resolve().parents[2] / "fixtures" / "scenes"
 DURATION = 10.0
 FLIES = 5000
 
