@@ -64,6 +64,10 @@ class GenerationStats:
     sonar_immigrants: int
 
 
+# Marks the fused fitness as computed before the flies last moved (so: for every fly again).
+_MOVED = object()
+
+
 class FlyEngine:
     """The fly algorithm over a stereo rig, with sonar and odometry fusion."""
 
@@ -93,7 +97,7 @@ class FlyEngine:
         self._sonars = np.empty((0, 5))  # fired_sonars(self._sonar)
         # The reading every fly's fitness was fused with (None: fitness = vision); a fly's
         # fitness is recomputed only when its vision is, unless the reading changes.
-        self._fused_with: SonarReading | None = None
+        self._fused_with: SonarReading | object | None = None  # _MOVED after a motion
         self._generation = 0
 
     # --- inputs -----------------------------------------------------------------------------
@@ -118,11 +122,16 @@ class FlyEngine:
 
     def apply_motion(self, increment: Pose2D) -> None:
         """Proprioception: move every fly by the inverse of the robot's motion ``increment``
-        (``relative(prev_odom, new_odom)``). Does nothing when proprioception is off."""
+        (``relative(prev_odom, new_odom)``). Does nothing when proprioception is off.
+
+        A moved fly is the same point of the world, and its vision fitness was measured on
+        images taken before the motion: it stays valid until those images are replaced
+        (scoring the moved fly on the same old images would mix two poses). Only the sonar
+        term, which depends on where the fly is now relative to the cones, is recomputed."""
         if not self.config.proprioception:
             return
         self._pop.xyz = moved_by_odometry(self._pop.xyz, increment)
-        self._pop.stale[:] = True
+        self._fused_with = _MOVED
 
     # --- outputs ----------------------------------------------------------------------------
 
@@ -240,7 +249,8 @@ class FlyEngine:
         return len(index)
 
     def _fuse(self, index: np.ndarray) -> None:
-        """The fused fitness of the flies ``index`` (of every fly if the reading changed)."""
+        """The fused fitness of the flies ``index`` (of every fly if the reading changed or
+        the flies moved)."""
         cfg, pop = self.config, self._pop
         reading = self._sonar if cfg.sonar_fitness and cfg.sonar_bonus != 0 else None
         if reading is not self._fused_with:

@@ -188,11 +188,36 @@ def test_sonar_switches(sonar_scene):
 def test_proprioception_switch(small_frame):
     for on in (True, False):
         engine, _ = run(EngineConfig(flies=300, proprioception=on), small_frame, generations=1)
-        before = engine.population.xyz
+        before = engine.population
         engine.apply_motion(Pose2D(0.5, 0.0, 0.0))
-        shift = before[:, 0] - engine.population.xyz[:, 0]
-        np.testing.assert_allclose(shift, 0.5 if on else 0.0)
-        assert engine.population.stale.all() == on
+        after = engine.population
+        np.testing.assert_allclose(before.xyz[:, 0] - after.xyz[:, 0], 0.5 if on else 0.0)
+        # a moved fly keeps the vision fitness measured on the images it was scored on
+        np.testing.assert_array_equal(after.vision, before.vision)
+        assert not after.stale.any()
+
+
+def test_motion_recomputes_the_sonar_term_and_new_images_every_fitness(sonar_scene):
+    pair, reading = sonar_scene
+    cfg = EngineConfig(flies=1000, sonar_immigration=False)
+    engine, stats = run(cfg, (pair,), sonar=reading, generations=3)
+    survivors, newcomers = stats[-1].survivors, cfg.flies - stats[-1].survivors
+    assert stats[-1].evaluations == newcomers
+    engine.apply_motion(Pose2D(0.3, 0.05, 0.1))
+    before = engine.population
+    assert engine.step().evaluations == newcomers  # no fly re-scored on the same images
+    after = engine.population
+    assert survivors > 0 and not after.stale.any()
+    # every fly's sonar term is that of where it is now, survivors included
+    fused = sonar_fused(after.vision, after.xyz, reading, bonus=cfg.sonar_bonus,
+                        tolerance=cfg.sonar_tolerance, use_numba=False)  # fmt: skip
+    np.testing.assert_allclose(after.fitness, fused, rtol=1e-12)
+    stale_bonus = sonar_fused(before.vision, before.xyz, reading, bonus=cfg.sonar_bonus,
+                              tolerance=cfg.sonar_tolerance, use_numba=False)  # fmt: skip
+    assert not np.array_equal(stale_bonus, before.fitness)  # the motion did change bonuses
+    engine.set_images(pair)
+    assert engine.population.stale.all()
+    assert engine.step().evaluations == cfg.flies + newcomers
 
 
 # --- fusion pays ---------------------------------------------------------------------------
