@@ -42,6 +42,13 @@ CALIBRATION_TOPICS = MappingProxyType({"left": LEFT_CALIBRATION, "right": RIGHT_
 
 SIMULATION_METADATA = "flylog.simulation"  # scene, seed, camera, start and goal of a sensor log
 REPLAY_METADATA = "flylog.replay"  # effective configuration and counts of a run
+# The whole /truth/pose and /odom series of a sensor log, written by the simulator at close
+# so that metrics read them from the summary section instead of decompressing every image
+# chunk. Keys: "version" ("1"), "true" and "odom", each the JSON text of
+# {"t_ns": [int], "x": [m], "y": [m], "theta": [rad]}: one entry per message of the topic,
+# in log-time order. Logs without it (older or unfinished ones) are read from the topics.
+TRAJECTORIES_METADATA = "flylog.trajectories"
+TRAJECTORIES_VERSION = "1"
 
 # ---- frames ------------------------------------------------------------------------------
 

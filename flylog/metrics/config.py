@@ -32,6 +32,15 @@ class MetricsConfig:
     min_detecting_flies: int = param(
         5, help="an obstacle is detected once this many obstacle flies lie on it", min=1
     )
+    truth_width: int = param(
+        160,
+        help="the true view is rendered in k x k pixel blocks (the ray through each block's "
+        "centre), k the largest divisor of the image's width and height that leaves it at "
+        "least this wide: 640x480 in 4 x 4 blocks (1/16 of the rays); at or above the "
+        "image's width, every pixel",
+        unit="px",
+        min=1,
+    )
     rpe_delta: float = param(1.0, help="time step of the relative pose error", unit="s", min=0.001)
     goal_tolerance: float = param(
         0.2, help="the goal is reached within this distance of it", unit="m", min=0.0

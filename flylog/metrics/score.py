@@ -2,7 +2,8 @@
 
 The run file is a ``flylog replay`` output or a closed-loop ``flylog simulate`` log (which is
 then also the sensor log). Ground truth is rendered only at the snapshot times, from the
-true pose interpolated there, by the simulator's renderer. Definitions: see
+true pose interpolated there, by the simulator's renderer, on a grid of pixel blocks at
+least ``truth_width`` blocks wide (``flylog.metrics.view``). Definitions: see
 ``flylog.metrics.flies`` (flies), ``flylog.metrics.obstacles`` (latency) and
 ``flylog.metrics.trajectory`` (ATE, RPE); the robot's metrics use the true trajectory
 (``/truth/pose``): path length, clearance = distance to the nearest footprint − robot
@@ -34,15 +35,16 @@ from flylog.metrics.config import MetricsConfig
 from flylog.metrics.flies import f_score, ratio, score_flies
 from flylog.metrics.obstacles import detect_obstacles
 from flylog.metrics.trajectory import (
+    PoseInterpolator,
     associate,
     ate_rmse,
     count_entries,
     first_arrival,
-    interpolate_poses,
     path_length,
     rpe_rmse,
 )
 from flylog.metrics.truth import LogTruth, read_truth
+from flylog.metrics.view import TrueViews
 from flylog.scene.load import distance_to_obstacles
 
 # Odometry and truth are written at the same instants by the simulator; allow one 50 Hz
@@ -101,9 +103,7 @@ def run_facts(reader: LogReader, config: MetricsConfig) -> RunFacts:
     )
 
 
-def _snapshot_row(
-    t_ns: int, t0_ns: int, pose: np.ndarray, score: Any, nearest_true: float
-) -> dict[str, Any]:
+def _snapshot_row(t_ns: int, t0_ns: int, pose: np.ndarray, score: Any) -> dict[str, Any]:
     return {
         "stamp_ns": int(t_ns),
         "t_s": (t_ns - t0_ns) / 1e9,
@@ -123,7 +123,7 @@ def _snapshot_row(
         "median_depth_error": (
             float(np.median(score.depth_errors)) if len(score.depth_errors) else math.nan
         ),
-        "nearest_true_m": nearest_true,
+        "nearest_true_m": math.nan,  # filled in for all snapshots at once
         "nearest_visible_m": score.nearest_visible,
         "nearest_detected_m": score.nearest_detected,
     }
@@ -164,8 +164,6 @@ def score_run(
 ) -> MetricsResult:
     """Score ``run`` against the ground truth of the sensor log ``log`` (may be the same
     file). ``on_progress(done, total)`` reports progress in seconds of log time."""
-    from flylog.sim.render import Renderer
-
     wall0 = time.perf_counter()
     truth = read_truth(log)
     reader = open_log(run)
@@ -176,7 +174,8 @@ def score_run(
     t0, t_end = int(true.t_ns[0]), int(true.t_ns[-1])
     gap = round(config.max_time_gap * 1e9)
     n_obstacles = len(truth.scene.obstacles)
-    renderer = Renderer(truth.scene, truth.rig)
+    views = TrueViews(truth.scene, truth.rig, config.truth_width)
+    true_pose = PoseInterpolator(true)
 
     if contract.FLIES not in present:
         warnings.warn(
@@ -203,20 +202,29 @@ def score_run(
             )
             raise LogError(msg)
         cloud = m.value
-        pose = interpolate_poses(true, np.array([t]))[0]
-        depth, ids = renderer.render_depth(Pose2D(*pose))
+        pose = true_pose(np.array([t]))[0]
+        view = views.view(Pose2D(*pose))
         keep = facts.rule.mask(cloud.xyz, cloud.fitness, cloud.age)
         score = score_flies(
-            cloud.xyz[keep], depth, ids, truth.rig, n_obstacles, config, flies=len(cloud.xyz)
+            cloud.xyz[keep],
+            view.depth,
+            view.ids,
+            truth.rig,
+            n_obstacles,
+            config,
+            flies=len(cloud.xyz),
+            block=view.block,
         )
-        nearest_true = float(distance_to_obstacles(truth.scene, pose[None, :2])[0])
-        rows.append(_snapshot_row(t, t0, pose, score, nearest_true))
+        rows.append(_snapshot_row(t, t0, pose, score))
         visible_px.append(score.visible_pixels)
         flies_on.append(score.flies_on)
         errors.append(score.depth_errors)
         if on_progress is not None:
             on_progress((t - t0) / 1e9, (t_end - t0) / 1e9)
 
+    xy = np.array([[r["true_x"], r["true_y"]] for r in rows]).reshape(-1, 2)
+    for row, nearest in zip(rows, distance_to_obstacles(truth.scene, xy), strict=True):
+        row["nearest_true_m"] = float(nearest)
     t_s = np.array([r["t_s"] for r in rows])
     det = detect_obstacles(
         t_s,

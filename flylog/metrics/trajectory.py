@@ -46,14 +46,26 @@ def wrap(angles: np.ndarray) -> np.ndarray:
     return np.arctan2(np.sin(angles), np.cos(angles))
 
 
+class PoseInterpolator:
+    """``interpolate_poses`` for many queries on one trajectory (the heading unwrapped once)."""
+
+    def __init__(self, traj: Trajectory) -> None:
+        self._t = traj.t_ns
+        self._x, self._y = traj.xyt[:, 0], traj.xyt[:, 1]
+        self._theta = np.unwrap(traj.xyt[:, 2])
+
+    def __call__(self, t_ns: np.ndarray) -> np.ndarray:
+        t = np.asarray(t_ns, dtype=np.int64)
+        x = np.interp(t, self._t, self._x)
+        y = np.interp(t, self._t, self._y)
+        theta = np.interp(t, self._t, self._theta)
+        return np.stack([x, y, wrap(theta)], axis=-1)
+
+
 def interpolate_poses(traj: Trajectory, t_ns: np.ndarray) -> np.ndarray:
     """(M, 3) poses at the query times: linear in x, y and in the unwrapped heading,
     clamped to the end poses outside the trajectory's time span."""
-    t = np.asarray(t_ns, dtype=np.int64)
-    x = np.interp(t, traj.t_ns, traj.xyt[:, 0])
-    y = np.interp(t, traj.t_ns, traj.xyt[:, 1])
-    theta = np.interp(t, traj.t_ns, np.unwrap(traj.xyt[:, 2]))
-    return np.stack([x, y, wrap(theta)], axis=1)
+    return PoseInterpolator(traj)(t_ns)
 
 
 def associate(

@@ -1,15 +1,23 @@
 """What a sensor log says is true: the scene, the camera rig, the true and odometric
 trajectories (``/truth/pose``, ``/odom``). The true views themselves come from the
 simulator's own renderer (``flylog.sim.render.Renderer.render_depth``), never from a
-second geometry code."""
+second geometry code.
+
+The trajectories come from the ``flylog.trajectories`` metadata record the simulator writes
+at close (read from the summary section: no image chunk is decompressed) when the log has
+one that matches its topics' message counts, else from the topics themselves (older logs,
+unfinished ones), in one streaming pass over the log."""
 
 from __future__ import annotations
 
+import enum
 import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from flylog.config import from_mapping
 from flylog.errors import ConfigError, LogError
@@ -22,6 +30,13 @@ from flylog.scene.load import Scene, parse_scene
 SCENE_ATTACHMENT = "scene.toml"
 
 
+class TrajectorySource(enum.Enum):
+    """Where a LogTruth's trajectories were read from."""
+
+    METADATA = "metadata"  # the TRAJECTORIES_METADATA record: no chunk decompressed
+    TOPICS = "topics"  # /truth/pose and /odom, streamed
+
+
 @dataclass(frozen=True)
 class LogTruth:
     """Ground truth of a sensor log."""
@@ -31,6 +46,7 @@ class LogTruth:
     rig: StereoRig
     true: Trajectory
     odom: Trajectory
+    source: TrajectorySource = TrajectorySource.TOPICS
 
     @property
     def goal(self) -> tuple[float, float]:
@@ -101,16 +117,52 @@ def read_odom_tf(reader: LogReader) -> Trajectory:
     return trajectory(times, poses)
 
 
+def _series(text: str) -> Trajectory:
+    data = json.loads(text)
+    xyt = np.column_stack([np.asarray(data[k], dtype=float) for k in ("x", "y", "theta")])
+    t_ns = np.asarray(data["t_ns"], dtype=np.int64)
+    if xyt.shape != (len(t_ns), 3):
+        msg = f"series of {len(t_ns)} times but {xyt.shape} poses"
+        raise ValueError(msg)
+    return trajectory(t_ns, xyt)
+
+
+def recorded_trajectories(reader: LogReader) -> dict[str, Trajectory] | None:
+    """``/truth/pose`` and ``/odom`` from the TRAJECTORIES_METADATA record, or None if the
+    log has none, of another version, unreadable, or not matching the topics' message
+    counts (a log filtered by another tool, say): the caller then streams the topics."""
+    meta = reader.metadata().get(contract.TRAJECTORIES_METADATA)
+    if meta is None or meta.get("version") != contract.TRAJECTORIES_VERSION:
+        return None
+    try:
+        found = {
+            contract.TRUTH_POSE: _series(meta["true"]),
+            contract.ODOM: _series(meta["odom"]),
+        }
+    except (KeyError, TypeError, ValueError):  # json.JSONDecodeError is a ValueError
+        return None
+    present = reader.topics()
+    for topic, traj in found.items():
+        if topic not in present or present[topic].count != len(traj):
+            return None
+    return found
+
+
 def read_truth(path: str | Path) -> LogTruth:
     """Scene, rig and trajectories of a sensor log (LogError naming what is missing)."""
     reader = open_log(path)
     require_topics(reader, [contract.TRUTH_POSE, contract.ODOM])
     scene = read_scene(reader)
-    poses = read_poses(reader, [contract.TRUTH_POSE, contract.ODOM])
+    poses = recorded_trajectories(reader)
+    source = TrajectorySource.METADATA
+    if poses is None:
+        poses = read_poses(reader, [contract.TRUTH_POSE, contract.ODOM])
+        source = TrajectorySource.TOPICS
     return LogTruth(
         path=Path(path),
         scene=scene,
         rig=read_rig(reader, scene),
         true=poses[contract.TRUTH_POSE],
         odom=poses[contract.ODOM],
+        source=source,
     )

@@ -21,7 +21,7 @@ import numpy as np
 from flylog.errors import LogError
 from flylog.io import contract, open_log
 from flylog.metrics.trajectory import Trajectory, trajectory
-from flylog.metrics.truth import read_odom_tf, read_poses
+from flylog.metrics.truth import read_odom_tf, read_poses, recorded_trajectories
 
 
 def tum_line(t_ns: int, x: float, y: float, theta: float) -> str:
@@ -64,7 +64,9 @@ def log_trajectories(path: str | Path) -> dict[str, Trajectory]:
     present = reader.topics()
     out: dict[str, Trajectory] = {}
     pose_topics = [t for t in (contract.TRUTH_POSE, contract.ODOM) if t in present]
-    found = read_poses(reader, pose_topics) if pose_topics else {}
+    found = recorded_trajectories(reader) or (
+        read_poses(reader, pose_topics) if pose_topics else {}
+    )
     if contract.TRUTH_POSE in found:
         out["true"] = found[contract.TRUTH_POSE]
     if contract.ODOM in found:

@@ -19,12 +19,16 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Protocol
 
 import numpy as np
 
 from flylog.config import to_mapping
+from flylog.geometry import Pose2D
+from flylog.geometry.poses import yaw_quaternion
 from flylog.io import contract, encode
+from flylog.io.decode import yaw_of
 from flylog.io.writer import LogConfig, LogWriter
 from flylog.scene.load import Scene
 from flylog.sensors import OdomReading, SonarReading, StereoPair
@@ -141,6 +145,7 @@ def simulate(
     total_frames = sum(1 for e in events if e[2] == "camera")
 
     poses = RobotPoses(scene.start_pose, scene.start_pose)
+    series = _PoseSeries()
     command = (0.0, 0.0)
     now_ns = 0
     frames = messages = 0
@@ -185,6 +190,7 @@ def simulate(
                     t_ns,
                     encode.pose_in_frame(poses.true, t_ns, contract.ODOM_FRAME),
                 )
+                series.add(t_ns, poses)
                 if closed is not None:
                     closed.observe(odom)
                 command = driver.command(t_ns / 1e9, poses.odom)
@@ -219,6 +225,7 @@ def simulate(
                     on_frame(frames, total_frames)
         if closed is not None:
             log.add_metadata(contract.REPLAY_METADATA, closed.finish(now_ns))
+        log.add_metadata(contract.TRAJECTORIES_METADATA, series.metadata())
     gx, gy = scene.goal
     return SimulationSummary(
         path=output,
@@ -229,6 +236,45 @@ def simulate(
         wall_seconds=time.perf_counter() - t_wall,
         goal_distance=math.hypot(poses.true.x - gx, poses.true.y - gy),
     )
+
+
+class _PoseSeries:
+    """The /truth/pose and /odom series as written, for the TRAJECTORIES_METADATA record."""
+
+    def __init__(self) -> None:
+        self.t_ns: list[int] = []
+        self.true: list[Pose2D] = []
+        self.odom: list[Pose2D] = []
+
+    def add(self, t_ns: int, poses: RobotPoses) -> None:
+        self.t_ns.append(int(t_ns))
+        self.true.append(poses.true)
+        self.odom.append(poses.odom)
+
+    def _json(self, poses: list[Pose2D]) -> str:
+        return json.dumps(
+            {
+                "t_ns": self.t_ns,
+                "x": [float(p.x) for p in poses],
+                "y": [float(p.y) for p in poses],
+                "theta": [_logged_heading(p.theta) for p in poses],
+            },
+            separators=(",", ":"),
+        )
+
+    def metadata(self) -> dict[str, str]:
+        return {
+            "version": contract.TRAJECTORIES_VERSION,
+            "true": self._json(self.true),
+            "odom": self._json(self.odom),
+        }
+
+
+def _logged_heading(theta: float) -> float:
+    """The heading a reader decodes from the quaternion logged for ``theta`` (the same
+    operations as reading the topic: both ways of reading a log agree bit for bit)."""
+    x, y, z, w = yaw_quaternion(theta)
+    return yaw_of(SimpleNamespace(x=x, y=y, z=z, w=w))
 
 
 def _metadata(scene: Scene, options: SimulationOptions, duration: float) -> dict[str, str]:

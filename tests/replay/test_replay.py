@@ -75,21 +75,26 @@ def test_effective_config_is_stored_and_reproduces_the_run(corridor_run, tmp_pat
 
 def test_never_reads_truth(corridor_run, tmp_path):
     blind = tmp_path / "no-truth.mcap"
-    copy_log(CORRIDOR, blind, lambda topic: not topic.startswith(contract.TRUTH_PREFIX))
+    copy_log(CORRIDOR, blind, lambda topic: not topic.startswith(contract.TRUTH_PREFIX),
+             metadata=lambda name: name != contract.TRAJECTORIES_METADATA)  # fmt: skip
     assert not any(t.startswith("/truth/") for t in open_log(blind).topics())
+    assert contract.TRAJECTORIES_METADATA in open_log(CORRIDOR).metadata()
+    assert contract.TRAJECTORIES_METADATA not in open_log(blind).metadata()
     run = replay(blind, tmp_path / "run.mcap", SMALL)
     assert content(run.output) == content(corridor_run.output)
 
 
-def copy_log(source, target, keep, *, chunk_size=4 * 1024 * 1024):
-    """Copy a log's metadata and the messages of the topics ``keep`` accepts, byte for byte."""
+def copy_log(source, target, keep, *, chunk_size=4 * 1024 * 1024, metadata=lambda name: True):
+    """Copy a log's metadata records that ``metadata`` accepts and the messages of the topics
+    ``keep`` accepts, byte for byte."""
     reader = open_log(source)
     schemas, channels = {}, {}
     with target.open("wb") as fh:
         writer = Writer(fh, chunk_size=chunk_size, use_summary_offsets=False)
         writer.start()
         for name, values in reader.metadata().items():
-            writer.add_metadata(name, values)
+            if metadata(name):
+                writer.add_metadata(name, values)
         for raw in reader.raw_messages():
             topic = raw.channel.topic
             if not keep(topic):
