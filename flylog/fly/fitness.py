@@ -11,7 +11,8 @@ the cameras or whose neighbourhood leaves either image scores :data:`INVALID_FIT
 below every valid fitness (which is ≥ 0).
 
 Two implementations with bit-identical results: :func:`fitness_numba` (parallel over flies,
-integer arithmetic on uint8 pixels) and :func:`fitness_numpy` (a short gather reference).
+integer arithmetic on uint8 pixels, a window row at a time in AVX2 vectors written as LLVM IR)
+and :func:`fitness_numpy` (a short gather reference).
 """
 
 from __future__ import annotations
@@ -22,6 +23,15 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from flylog.fly.fitness_vector import (
+    HALF,
+    LANES,
+    MAX_CHANNELS,
+    lane_masks,
+    prefetch,
+    window_terms_16,
+    window_terms_32,
+)
 from flylog.geometry import StereoRig
 
 INVALID_FITNESS = -1.0
@@ -134,86 +144,156 @@ def _project_valid(x, y, z, k, window, height, width):  # pragma: no cover - com
     return int(vv), int(ul), int(ur)
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _byte(flat, offset):  # pragma: no cover - compiled
+    return np.int64(flat[offset])
+
+
 @numba.njit(cache=True, nogil=True)
-def _sobel_norm2(rows, row, col, channels):  # pragma: no cover - compiled
-    """Σ_c (gx² + gy²) of the 3×3 Sobel at (row, col) of an (H, W·C) image."""
+def _sobel_norm2(flat, centre, stride, channels):  # pragma: no cover - compiled
+    """Σ_c (gx² + gy²) of the 3×3 Sobel around the flat offset ``centre`` (channel 0) of an
+    image read as a flat (H·W·C) array (offsets unsigned: no wraparound test per read)."""
     grad2 = np.int64(0)
-    above, mid, below = rows[row - 1], rows[row], rows[row + 1]
+    across, down = np.uint64(channels), np.uint64(stride)
     for c in range(channels):
-        w, e = (col - 1) * channels + c, (col + 1) * channels + c
-        m = col * channels + c
-        gx = (
-            np.int32(above[e])
-            - np.int32(above[w])
-            + 2 * (np.int32(mid[e]) - np.int32(mid[w]))
-            + np.int32(below[e])
-            - np.int32(below[w])
-        )
-        gy = (
-            np.int32(below[w])
-            - np.int32(above[w])
-            + 2 * (np.int32(below[m]) - np.int32(above[m]))
-            + np.int32(below[e])
-            - np.int32(above[e])
-        )
+        m = np.uint64(centre + c)
+        a, b = m - down, m + down  # above and below
+        nw, n, ne = _byte(flat, a - across), _byte(flat, a), _byte(flat, a + across)
+        w, e = _byte(flat, m - across), _byte(flat, m + across)
+        sw, s, se = _byte(flat, b - across), _byte(flat, b), _byte(flat, b + across)
+        gx = ne - nw + 2 * (e - w) + se - sw
+        gy = sw - nw + 2 * (s - n) + se - ne
         grad2 += gx * gx + gy * gy
     return grad2
 
 
 @numba.njit(cache=True, nogil=True)
-def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, guard, scratch, out):
-    """Fitness of flies index[start:stop]; ``scratch`` (2, ≥ window·channels) int32 is this
-    caller's: per (column, channel) lane, Σd and Σd² over the window's rows."""
+def _zssd_lanes(lflat, rflat, bl, br, stride, window, channels, scratch):  # pragma: no cover
+    """n·Σ_c ZSSD_c = n·Σd² − Σ_c (Σd)², for any window and channel count: Σd and Σd² per
+    (column, channel) lane in ``scratch`` (2, ≥ window·channels) int32, then by channel."""
+    ncols = window * channels
+    col, sqv = scratch[0], scratch[1]
+    for j in range(ncols):
+        col[j] = 0
+        sqv[j] = 0
+    # Unsigned offsets: no negative-index wraparound test per byte, so the lane loop vectorises.
+    ul, ur, ustride = np.uint64(bl), np.uint64(br), np.uint64(stride)
+    for _ in range(window):
+        for j in range(ncols):
+            d = np.int32(lflat[ul + np.uint64(j)]) - np.int32(rflat[ur + np.uint64(j)])
+            col[j] += d
+            sqv[j] += d * d
+        ul += ustride
+        ur += ustride
+    sq = np.int64(0)
+    for j in range(ncols):
+        sq += sqv[j]
+    total = np.int64(window * window) * sq
+    for c in range(channels):
+        s1 = np.int64(0)
+        for j in range(c, ncols, channels):
+            s1 += col[j]
+        total -= s1 * s1
+    return total
+
+
+# Flies go in blocks, in three passes: project all (and prefetch their window rows), then the
+# integer window terms, then the float fitness. Each pass's iterations are independent, so the
+# CPU overlaps one fly's long chain (divisions, loads, reductions, square roots) with the
+# next's; done fly by fly, that chain was most of the time.
+_BLOCK = 64
+# The window rows of the fly this many places ahead are prefetched: random flies' rows mostly
+# miss L2, and a fly's wait then overlaps the work on the flies before it.
+_AHEAD = 4
+
+
+@numba.njit(cache=True, nogil=True)
+def _prefetch_window(lflat, rflat, bl, br, stride, window, lanes):  # pragma: no cover
+    """Prefetch the bytes a vector window reads from bl (left) and br (right); bl < 0: none."""
+    if bl < 0:
+        return
+    for _ in range(window):
+        prefetch(lflat, bl)
+        prefetch(lflat, bl + lanes - 1)
+        prefetch(rflat, br)
+        prefetch(rflat, br + lanes - 1)
+        bl += stride
+        br += stride
+
+
+@numba.njit(cache=True, nogil=True)
+def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, guard, masks, out):
+    """Fitness of flies index[start:stop]; ``masks`` from :func:`lane_masks`."""
     height = lrow.shape[0]
     stride = lrow.shape[1]
     width = stride // channels
+    size = lrow.size
     h = window // 2
     n = window * window
     ncols = window * channels
     denominator_guard = guard * n * channels
-    # Flat images and unsigned offsets: no negative-index wraparound test per pixel, so the
-    # lane loop vectorises (int32 lanes: |Σd| ≤ 31·255 and Σd² ≤ 31·255² fit easily).
-    lflat = lrow.reshape(lrow.size)
-    rflat = rrow.reshape(rrow.size)
-    ustride = np.uint64(stride)
-    col = scratch[0]
-    sqv = scratch[1]
-    for t in range(start, stop):
-        i = index[t]
-        row, cl, cr = _project_valid(xyz[i, 0], xyz[i, 1], xyz[i, 2], k, window, height, width)
-        if row < 0:
-            out[i] = INVALID_FITNESS
-            continue
-        bl = np.uint64((row - h) * stride + (cl - h) * channels)
-        br = np.uint64((row - h) * stride + (cr - h) * channels)
-        for j in range(ncols):
-            col[j] = 0
-            sqv[j] = 0
-        for _ in range(window):
-            for j in range(ncols):
-                d = np.int32(lflat[bl + np.uint64(j)]) - np.int32(rflat[br + np.uint64(j)])
-                col[j] += d
-                sqv[j] += d * d
-            bl += ustride
-            br += ustride
-        sq = np.int64(0)
-        for j in range(ncols):
-            sq += sqv[j]
-        total = np.int64(n) * sq
-        for c in range(channels):
-            s1 = np.int64(0)
-            for j in range(c, ncols, channels):
-                s1 += col[j]
-            total -= s1 * s1
-        grad2 = _sobel_norm2(lrow, row, cl, channels)
-        out[i] = math.sqrt(math.sqrt(float(grad2))) / (total / n + denominator_guard)
+    lflat = lrow.reshape(size)
+    rflat = rrow.reshape(size)
+    lanes = HALF if ncols <= HALF else LANES
+    vector = ncols <= LANES and channels <= MAX_CHANNELS
+    reach = (window - 1) * stride + lanes  # bytes a vector window reads from its first
+    # Per fly of the block: first offsets of its left and right windows (−1: invalid fly),
+    # then n·Σ_c ZSSD_c and the Sobel norm².
+    first_l = np.empty(_BLOCK, dtype=np.int64)
+    first_r = np.empty(_BLOCK, dtype=np.int64)
+    totals = np.empty(_BLOCK, dtype=np.int64)
+    grads = np.empty(_BLOCK, dtype=np.int64)
+    scratch = np.empty((2, ncols), dtype=np.int32)  # for the windows of the lane loop
+    for block in range(start, stop, _BLOCK):
+        m = min(_BLOCK, stop - block)
+        for t in range(m):
+            i = index[block + t]
+            row, cl, cr = _project_valid(xyz[i, 0], xyz[i, 1], xyz[i, 2], k, window, height, width)
+            if row < 0:
+                first_l[t] = -1
+                continue
+            bl = (row - h) * stride + (cl - h) * channels
+            br = (row - h) * stride + (cr - h) * channels
+            first_l[t] = bl
+            first_r[t] = br
+        for t in range(min(_AHEAD, m)):
+            _prefetch_window(lflat, rflat, first_l[t], first_r[t], stride, window, lanes)
+        for t in range(m):
+            if t + _AHEAD < m:
+                ahead = t + _AHEAD
+                _prefetch_window(
+                    lflat, rflat, first_l[ahead], first_r[ahead], stride, window, lanes
+                )
+            bl = first_l[t]
+            br = first_r[t]
+            if bl < 0:
+                continue
+            if vector and max(bl, br) + reach <= size:
+                if lanes == HALF:
+                    sq, squares, grad2 = window_terms_16(
+                        lflat, rflat, bl, br, stride, window, masks
+                    )
+                else:
+                    sq, squares, grad2 = window_terms_32(
+                        lflat, rflat, bl, br, stride, window, masks
+                    )
+                totals[t] = n * sq - squares
+                grads[t] = grad2
+            else:
+                totals[t] = _zssd_lanes(lflat, rflat, bl, br, stride, window, channels, scratch)
+                centre = bl + h * stride + h * channels
+                grads[t] = _sobel_norm2(lflat, centre, stride, channels)
+        for t in range(m):
+            fitness = INVALID_FITNESS
+            if first_l[t] >= 0:
+                zssd = totals[t] / n
+                fitness = math.sqrt(math.sqrt(float(grads[t]))) / (zssd + denominator_guard)
+            out[index[block + t]] = fitness
 
 
-# The parallel kernel splits the flies into this many chunks, each with its own scratch rows
-# (padded to 256 bytes so threads never share a cache line). No reduction crosses flies, so
+# The parallel kernel splits the flies into this many chunks. No reduction crosses flies, so
 # results do not depend on the split or the thread count.
 _CHUNKS = 64
-_SCRATCH = 64
 # Below this many evaluations one thread is faster: a parallel region costs more than the
 # work, and much more when other processes compete for the cores.
 PARALLEL_MIN_EVALUATIONS = 20_000
@@ -222,21 +302,19 @@ PARALLEL_MIN_EVALUATIONS = 20_000
 @numba.njit(cache=True, nogil=True, parallel=True)
 def _fitness_parallel(lrow, rrow, channels, xyz, index, k, window, guard, out):  # pragma: no cover
     m = index.shape[0]
-    scratch = np.zeros(
-        (_CHUNKS, 2, _SCRATCH * ((window * channels + _SCRATCH - 1) // _SCRATCH)), dtype=np.int32
-    )
+    masks = lane_masks(window, channels)
     for chunk in numba.prange(_CHUNKS):
         _fitness_range(
             lrow, rrow, channels, xyz, index, chunk * m // _CHUNKS, (chunk + 1) * m // _CHUNKS,
-            k, window, guard, scratch[chunk], out,
+            k, window, guard, masks, out,
         )  # fmt: skip
 
 
 @numba.njit(cache=True, nogil=True)
 def _fitness_serial(lrow, rrow, channels, xyz, index, k, window, guard, out):  # pragma: no cover
-    scratch = np.zeros((2, window * channels), dtype=np.int32)
+    masks = lane_masks(window, channels)
     _fitness_range(
-        lrow, rrow, channels, xyz, index, 0, index.shape[0], k, window, guard, scratch, out
+        lrow, rrow, channels, xyz, index, 0, index.shape[0], k, window, guard, masks, out
     )
 
 

@@ -1,8 +1,10 @@
+import numba
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from flylog.fly import fitness, fitness_vector
 from flylog.fly.fitness import (
     INVALID_FITNESS,
     fitness_numba,
@@ -30,8 +32,10 @@ IMPLEMENTATIONS = [fitness_numpy, _numba_serial, _numba_parallel]
 @st.composite
 def cases(draw):
     seed = draw(st.integers(0, 2**32 - 1))
-    channels = draw(st.sampled_from([1, 3]))
-    window = draw(st.sampled_from([3, 5, 7, 9]))
+    # Rows of up to 32 bytes and 4 channels take the vector path (16 or 32 lanes); wider rows
+    # (11 × 3, 9 × 4, 15, 23) and 5 channels the lane-loop one.
+    channels = draw(st.sampled_from([1, 2, 3, 4, 5]))
+    window = draw(st.sampled_from([3, 5, 7, 9, 11, 15, 23]))
     rng = np.random.default_rng(seed)
     shape = (SMALL.height, SMALL.width) + ((3,) if channels == 3 else ())
     left = rng.integers(0, 256, shape, dtype=np.uint8)
@@ -53,6 +57,76 @@ def test_numba_kernel_equals_numpy_reference(case):
     expected = fitness_numpy(left, right, xyz, SMALL, window, 1.0)
     for impl in (_numba_serial, _numba_parallel):
         np.testing.assert_array_equal(impl(left, right, xyz, SMALL, window, 1.0), expected)
+
+
+@pytest.mark.parametrize("channels", [1, 3])
+@pytest.mark.parametrize("window", [5, 7, 15])
+def test_windows_at_the_image_end_equal_numpy_reference(channels, window):
+    # The last rows' vector reads would pass the end of the image: the scalar path takes them.
+    rng = np.random.default_rng(window * channels)
+    shape = (SMALL.height, SMALL.width) + ((channels,) if channels > 1 else ())
+    left = rng.integers(0, 256, shape, dtype=np.uint8)
+    right = rng.integers(0, 256, shape, dtype=np.uint8)
+    h = window // 2
+    u, v = np.meshgrid(np.arange(h, SMALL.width - h), np.arange(SMALL.height - h - 3, SMALL.height))
+    xyz = SMALL.backproject(u.ravel(), v.ravel(), np.full(u.size, 1e4))  # right ≈ left column
+    expected = fitness_numpy(left, right, xyz, SMALL, window, 1.0)
+    assert (expected > 0).sum() > 100
+    np.testing.assert_array_equal(_numba_serial(left, right, xyz, SMALL, window, 1.0), expected)
+
+
+@numba.njit
+def _scalar_terms(left, right, bl, br, stride, window, channels):
+    h = window // 2
+    centre = bl + h * stride + h * channels
+    scratch = np.empty((2, window * channels), dtype=np.int32)
+    return (
+        fitness._zssd_lanes(left, right, bl, br, stride, window, channels, scratch),
+        fitness._sobel_norm2(left, centre, stride, channels),
+    )
+
+
+PAIR_SUMS = [fitness_vector.pair_sums_generic] + (
+    [fitness_vector.pair_sums_x86] if fitness_vector.target_has_avx2() else []
+)
+
+
+# (window, channels) pairs whose rows take 1 and 2 vectors of 16 lanes.
+WINDOWS_BY_VECTORS = {
+    1: [(3, 1), (3, 4), (5, 3), (15, 1)],
+    2: [(7, 3), (9, 3), (7, 4), (16, 2), (31, 1)],
+}
+
+
+@pytest.mark.parametrize("vectors", sorted(WINDOWS_BY_VECTORS))
+@pytest.mark.parametrize("pair_sums", PAIR_SUMS, ids=lambda f: f.__name__)
+def test_vector_window_terms_equal_scalar_ones(pair_sums, vectors):
+    terms = fitness_vector.window_terms_intrinsic(pair_sums, vectors)
+
+    @numba.njit
+    def vector_terms(left, right, bl, br, stride, window, channels):
+        masks = fitness_vector.lane_masks(window, channels)
+        sq, squares, grad2 = terms(left, right, bl, br, stride, window, masks)
+        return window * window * sq - squares, grad2
+
+    rng = np.random.default_rng(vectors)
+    stride = 200
+    for window, channels in WINDOWS_BY_VECTORS[vectors]:
+        assert -(-window * channels // 16) == vectors
+        # Random bytes; all 255 against all 0 (the largest sums the lanes hold); random 0 or 255
+        # against 0 (the steepest gradients).
+        for case in ("random", "saturated", "salt"):
+            left = rng.integers(0, 256, 64 * stride, dtype=np.uint8)
+            right = rng.integers(0, 256, 64 * stride, dtype=np.uint8)
+            if case != "random":
+                right[:] = 0
+                left[:] = 255 if case == "saturated" else 255 * (rng.random(left.size) < 0.5)
+            bl, br = int(rng.integers(0, 100)), int(rng.integers(0, 100))
+            want = _scalar_terms(left, right, bl, br, stride, window, channels)
+            got = vector_terms(left, right, bl, br, stride, window, channels)
+            assert got == want, (window, channels, case)
+            if case != "saturated":
+                assert want[0] > 0 and want[1] > 0
 
 
 @pytest.fixture(scope="module")

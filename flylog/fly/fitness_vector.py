@@ -1,0 +1,217 @@
+"""The fitness kernel's window sums and Sobel (:mod:`flylog.fly.fitness`), on LLVM vectors
+written out by hand: numba widens int16 and int32 arithmetic to int64, which left the plain
+lane loop 4 lanes wide with its accumulators in memory. Each window row is read as 16 or 32 bytes, widened to int16 lanes, one lane per
+(column, channel) byte; d = L − R is masked to the window's lanes; Σd is kept per lane in int16
+(|Σd| ≤ 32·255) and Σd² in int32 lane pairs (vpmaddwd), in registers across rows. The sums by
+channel and the Sobel's gx, gy by channel are dot products of lane vectors with 0/±1/2 masks;
+their 16 pair-sum vectors are then reduced together by a transposing add tree. A window that
+needs more than 32 lanes (wider than 10 pixels in colour), more than MAX_CHANNELS channels, or
+whose reads would run past the end of the image takes the lane loop (_zssd_lanes, as before)
+and the scalar Sobel instead; both paths give the same integers.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+from llvmlite import binding as llvm
+from llvmlite import ir
+from numba import types
+from numba.core import cgutils
+from numba.extending import intrinsic
+
+HALF = 16  # int16 lanes per 256-bit vector
+LANES = 2 * HALF
+MAX_CHANNELS = 4
+# Mask rows: the window's lanes (−1), then per channel: its lanes (1), gx (±1), gy (1, 2, 1).
+_MASK_LANES, _MASK_SUM, _MASK_GX, _MASK_GY = 0, 1, 1 + MAX_CHANNELS, 1 + 2 * MAX_CHANNELS
+_MASK_ROWS = 1 + 3 * MAX_CHANNELS
+_I8, _I16, _I32, _I64 = ir.IntType(8), ir.IntType(16), ir.IntType(32), ir.IntType(64)
+_BYTES = ir.VectorType(_I8, HALF)
+_WORDS = ir.VectorType(_I16, HALF)
+_PAIRS = ir.VectorType(_I32, HALF // 2)
+
+
+def pair_sums_x86(builder: ir.IRBuilder, a: ir.Value, b: ir.Value) -> ir.Value:
+    """a[2k]·b[2k] + a[2k+1]·b[2k+1] in int32: one AVX2 vpmaddwd."""
+    fnty = ir.FunctionType(_PAIRS, [_WORDS, _WORDS])
+    fn = cgutils.get_or_insert_function(builder.module, fnty, "llvm.x86.avx2.pmadd.wd")
+    return builder.call(fn, [a, b])
+
+
+def pair_sums_generic(builder: ir.IRBuilder, a: ir.Value, b: ir.Value) -> ir.Value:
+    """The same sums for any target (the x86 backend does not always fold it to vpmaddwd)."""
+    total = None
+    for first in (0, 1):
+        lanes = ir.Constant(_PAIRS, [2 * k + first for k in range(HALF // 2)])
+        x = builder.sext(builder.shuffle_vector(a, a, lanes), _PAIRS)
+        y = builder.sext(builder.shuffle_vector(b, b, lanes), _PAIRS)
+        product = builder.mul(x, y)
+        total = product if total is None else builder.add(total, product)
+    return total
+
+
+def _shuffle_add(builder: ir.IRBuilder, a: ir.Value, b: ir.Value, first, second) -> ir.Value:
+    def pick(lanes):
+        return builder.shuffle_vector(a, b, ir.Constant(_PAIRS, list(lanes)))
+
+    return builder.add(pick(first), pick(second))
+
+
+def _sums_of_eight(builder: ir.IRBuilder, v: list) -> ir.Value:
+    """Eight <8 x i32> → one whose lanes are their sums, in the order v0 v2 v1 v3 v4 v6 v5 v7."""
+    low, high = (0, 1, 2, 3, 8, 9, 10, 11), (4, 5, 6, 7, 12, 13, 14, 15)
+    halves = [_shuffle_add(builder, v[k], v[k + 1], low, high) for k in range(0, 8, 2)]
+    low, high = (0, 1, 8, 9, 4, 5, 12, 13), (2, 3, 10, 11, 6, 7, 14, 15)
+    quarters = [_shuffle_add(builder, halves[k], halves[k + 1], low, high) for k in (0, 2)]
+    even, odd = tuple(range(0, 16, 2)), tuple(range(1, 16, 2))
+    return _shuffle_add(builder, quarters[0], quarters[1], even, odd)
+
+
+def _reduce(builder: ir.IRBuilder, v: ir.Value, name: str, width: int) -> ir.Value:
+    fnty = ir.FunctionType(v.type.element, [v.type])
+    fn = cgutils.get_or_insert_function(builder.module, fnty, f"llvm.vector.reduce.add.{name}")
+    total = builder.call(fn, [v])
+    return total if width == 64 else builder.sext(total, _I64)
+
+
+@intrinsic
+def prefetch(typingctx, array, offset):
+    """Ask the CPU to start loading the cache line holding byte ``offset`` of a C-contiguous
+    array (a hint only: results do not depend on it)."""
+    if not (isinstance(array, types.Array) and array.layout == "C"):
+        return None
+
+    def codegen(context, builder, signature, args):
+        data = context.make_array(signature.args[0])(context, builder, args[0]).data
+        ptr = builder.bitcast(builder.gep(data, [args[1]]), _I8.as_pointer())
+        fnty = ir.FunctionType(ir.VoidType(), [_I8.as_pointer(), _I32, _I32, _I32])
+        fn = cgutils.get_or_insert_function(builder.module, fnty, "llvm.prefetch.p0")
+        read, keep, data_cache = ir.Constant(_I32, 0), ir.Constant(_I32, 3), ir.Constant(_I32, 1)
+        builder.call(fn, [ptr, read, keep, data_cache])
+        return context.get_dummy_value()
+
+    return types.none(array, offset), codegen
+
+
+def window_terms_intrinsic(pair_sums, halves: int):
+    """An intrinsic (left, right, bl, br, stride, rows, masks) → (Σd², Σ_c (Σd)_c², Sobel
+    Σ_c gx² + gy²) over ``rows`` rows of ``halves``·16 bytes from flat offsets bl (left) and br
+    (right), a row every ``stride`` bytes; the Sobel at the window's centre in the left image;
+    ``masks`` (_MASK_ROWS, 2, 16) int16 from :func:`lane_masks`."""
+
+    @intrinsic
+    def window_terms(typingctx, left, right, bl, br, stride, rows, masks):
+        byte_arrays = all(
+            isinstance(a, types.Array) and a.dtype == types.uint8 and a.layout == "C"
+            for a in (left, right)
+        )
+        if not (byte_arrays and isinstance(masks, types.Array) and masks.layout == "C"):
+            return None
+        return types.UniTuple(types.int64, 3)(left, right, bl, br, stride, rows, masks), codegen
+
+    def codegen(context, builder, signature, args):
+        left, right, bl, br, stride, rows, masks = args
+        t_left, t_right, _, _, _, _, t_masks = signature.args
+        lptr = context.make_array(t_left)(context, builder, left).data
+        rptr = context.make_array(t_right)(context, builder, right).data
+        mptr = builder.bitcast(
+            context.make_array(t_masks)(context, builder, masks).data, _WORDS.as_pointer()
+        )
+
+        def mask(row, half):
+            return builder.load(builder.gep(mptr, [ir.Constant(_I64, 2 * row + half)]), align=2)
+
+        def words(data, offset, half):
+            at = builder.add(offset, ir.Constant(_I64, half * HALF))
+            ptr = builder.bitcast(builder.gep(data, [at]), _BYTES.as_pointer())
+            return builder.zext(builder.load(ptr, align=1), _WORDS)
+
+        lane_mask = [mask(_MASK_LANES, h) for h in range(halves)]
+        s_acc = [cgutils.alloca_once_value(builder, ir.Constant(_WORDS, None)) for _ in lane_mask]
+        q_acc = [cgutils.alloca_once_value(builder, ir.Constant(_PAIRS, None)) for _ in lane_mask]
+        offsets = cgutils.alloca_once_value(builder, bl), cgutils.alloca_once_value(builder, br)
+        with cgutils.for_range(builder, rows):
+            lo, ro = builder.load(offsets[0]), builder.load(offsets[1])
+            for h in range(halves):
+                d = builder.and_(builder.sub(words(lptr, lo, h), words(rptr, ro, h)), lane_mask[h])
+                builder.store(builder.add(builder.load(s_acc[h]), d), s_acc[h])
+                builder.store(
+                    builder.add(builder.load(q_acc[h]), pair_sums(builder, d, d)), q_acc[h]
+                )
+            builder.store(builder.add(lo, stride), offsets[0])
+            builder.store(builder.add(ro, stride), offsets[1])
+        # Sobel: the three rows around the centre, summed down the columns (1, 2, 1) for gx and
+        # differenced (below − above) for gy.
+        centre = builder.add(bl, builder.mul(builder.lshr(rows, ir.Constant(_I64, 1)), stride))
+        above, below = builder.sub(centre, stride), builder.add(centre, stride)
+        smooth, slope = [], []
+        for h in range(halves):
+            a, m, b = (words(lptr, at, h) for at in (above, centre, below))
+            smooth.append(
+                builder.add(builder.add(a, b), builder.shl(m, ir.Constant(_WORDS, [1] * HALF)))
+            )
+            slope.append(builder.sub(b, a))
+
+        def dot(lanes, row):
+            total = pair_sums(builder, lanes[0], mask(row, 0))
+            for h in range(1, halves):
+                total = builder.add(total, pair_sums(builder, lanes[h], mask(row, h)))
+            return total
+
+        s = [builder.load(a) for a in s_acc]
+        sums = [dot(s, _MASK_SUM + c) for c in range(MAX_CHANNELS)]
+        gx = [dot(smooth, _MASK_GX + c) for c in range(MAX_CHANNELS)]
+        gy = [dot(slope, _MASK_GY + c) for c in range(MAX_CHANNELS)]
+        q = builder.load(q_acc[0])
+        for a in q_acc[1:]:
+            q = builder.add(q, builder.load(a))
+        zero = ir.Constant(_PAIRS, None)
+        first = _sums_of_eight(builder, sums + gx)  # lanes 0-3: Σd by channel, 4-7: gx
+        second = _sums_of_eight(builder, [*gy, q, zero, zero, zero])  # 0-3: gy, lane 4: Σd²
+        quad = ir.VectorType(_I32, 4)
+
+        def lanes(v, start):
+            return builder.shuffle_vector(v, v, ir.Constant(quad, list(range(start, start + 4))))
+
+        by_channel = builder.sext(lanes(first, 0), ir.VectorType(_I64, 4))
+        squares = _reduce(builder, builder.mul(by_channel, by_channel), "v4i64", 64)
+        gx4, gy4 = lanes(first, 4), lanes(second, 0)
+        grad2 = _reduce(
+            builder, builder.add(builder.mul(gx4, gx4), builder.mul(gy4, gy4)), "v4i32", 32
+        )
+        sq = builder.sext(builder.extract_element(second, ir.Constant(_I32, 4)), _I64)
+        return context.make_tuple(builder, signature.return_type, [sq, squares, grad2])
+
+    return window_terms
+
+
+def target_has_avx2() -> bool:
+    """AVX2 on the CPU numba compiles for (the host, unless NUMBA_CPU_NAME/FEATURES say else)."""
+    if numba.config.CPU_NAME or numba.config.CPU_FEATURES:
+        return False
+    return bool(llvm.get_host_cpu_features().get("avx2", False))
+
+
+PAIR_SUMS = pair_sums_x86 if target_has_avx2() else pair_sums_generic
+window_terms_16 = window_terms_intrinsic(PAIR_SUMS, 1)
+window_terms_32 = window_terms_intrinsic(PAIR_SUMS, 2)
+
+
+@numba.njit(cache=True, nogil=True)
+def lane_masks(window, channels):  # pragma: no cover - compiled
+    """(_MASK_ROWS, 2, 16) int16 lane masks for a window and channel count (see _MASK_*); lane
+    j is byte j of a window row: pixel j // channels, channel j % channels."""
+    masks = np.zeros((_MASK_ROWS, 2, HALF), dtype=np.int16)
+    if channels > MAX_CHANNELS or window * channels > LANES:
+        return masks  # such windows take the lane loop
+    for j in range(window * channels):
+        masks[_MASK_LANES, j // HALF, j % HALF] = -1
+        masks[_MASK_SUM + j % channels, j // HALF, j % HALF] = 1
+    h = window // 2
+    for c in range(channels):
+        for pixel, gx, gy in ((h - 1, -1, 1), (h, 0, 2), (h + 1, 1, 1)):
+            j = pixel * channels + c
+            masks[_MASK_GX + c, j // HALF, j % HALF] = gx
+            masks[_MASK_GY + c, j // HALF, j % HALF] = gy
+    return masks
