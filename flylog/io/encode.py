@@ -265,10 +265,19 @@ def poses_in_frame(poses: np.ndarray, stamp_ns: int, frame_id: str) -> fm.PosesI
     if poses.ndim != 2 or poses.shape[1] != 3:
         msg = f"poses must be (N, 3) x, y, theta, got {poses.shape}"
         raise ValueError(msg)
+    # a planned path holds hundreds of poses at every snapshot: the rotations are computed
+    # for all at once, and each pose is built directly from Python floats
+    half = poses[:, 2] / 2.0
+    rows = zip(poses[:, 0].tolist(), poses[:, 1].tolist(), np.sin(half).tolist(),
+               np.cos(half).tolist(), strict=True)  # fmt: skip
+    pose, vector, quaternion = fm.Pose, fm.Vector3, fm.Quaternion
     return fm.PosesInFrame(
         timestamp=timestamp(stamp_ns),
         frame_id=frame_id,
-        poses=[_pose(x, y, 0.0, yaw_quaternion(t)) for x, y, t in poses.tolist()],
+        poses=[
+            pose(position=vector(x=x, y=y, z=0.0), orientation=quaternion(x=0.0, y=0.0, z=z, w=w))
+            for x, y, z, w in rows
+        ],
     )
 
 
