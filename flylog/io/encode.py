@@ -225,11 +225,12 @@ def image_annotations(
         msg = f"annotations need uv (N, 2) and colours (N, 4), got {uv.shape}, {colours.shape}"
         raise ValueError(msg)
     ts = timestamp(stamp_ns)
+    point, colour = fm.Point2, fm.Color  # looked up once: snapshots carry hundreds of flies
     points = fm.PointsAnnotation(
         timestamp=ts,
         type=fm.PointsAnnotationType.Points,
-        points=[fm.Point2(x=u, y=v) for u, v in uv.tolist()],
-        outline_colors=[fm.Color(r=r, g=g, b=b, a=a) for r, g, b, a in colours.tolist()],
+        points=[point(x=u, y=v) for u, v in uv.tolist()],
+        outline_colors=[colour(r=r, g=g, b=b, a=a) for r, g, b, a in colours.tolist()],
         thickness=float(thickness),
     )
     return fm.ImageAnnotations(timestamp=ts, points=[points])
