@@ -1,13 +1,14 @@
-"""The fitness kernel's window sums and Sobel (:mod:`flylog.fly.fitness`), on LLVM vectors
-written out by hand: numba widens int16 and int32 arithmetic to int64, which left the plain
-lane loop 4 lanes wide with its accumulators in memory. Each window row is read as 16 or 32 bytes, widened to int16 lanes, one lane per
-(column, channel) byte; d = L − R is masked to the window's lanes; Σd is kept per lane in int16
-(|Σd| ≤ 32·255) and Σd² in int32 lane pairs (vpmaddwd), in registers across rows. The sums by
-channel and the Sobel's gx, gy by channel are dot products of lane vectors with 0/±1/2 masks;
-their 16 pair-sum vectors are then reduced together by a transposing add tree. A window that
-needs more than 32 lanes (wider than 10 pixels in colour), more than MAX_CHANNELS channels, or
-whose reads would run past the end of the image takes the lane loop (_zssd_lanes, as before)
-and the scalar Sobel instead; both paths give the same integers.
+"""The fitness kernel's window sums and Sobel (:mod:`flylog.fly.fitness`), on LLVM vectors written
+out by hand: numba widens int16 and int32 arithmetic to int64, which left the plain lane loop 4
+lanes wide with its accumulators in memory. Each window row is read as 16 or 32 bytes, widened
+to int16 lanes, one lane per (column, channel) byte; d = L − R is masked to the window's lanes;
+Σd is kept per lane in int16 (|Σd| ≤ 32·255) and Σd² in int32 lane pairs (vpmaddwd), in
+registers across rows. The sums by channel and the Sobel's gx, gy by channel are dot products of
+lane vectors with 0/±1/2 masks; their 16 pair-sum vectors are then reduced together by a
+transposing add tree. A window that needs more than 32 lanes (wider than 10 pixels in colour),
+more than MAX_CHANNELS channels, or whose reads would run past the end of the image takes the
+lane loop (_zssd_lanes, as before) and the scalar Sobel instead; both paths give the same
+integers.
 """
 
 from __future__ import annotations
