@@ -24,6 +24,8 @@ from flylog.fly.fitness import (
     rig_constants,
 )
 from flylog.fly.fusion import (
+    arc_constants,
+    fired_arcs,
     fired_sonars,
     moved_by_odometry,
     sonar_fuse_into,
@@ -32,9 +34,9 @@ from flylog.fly.fusion import (
 )
 from flylog.fly.operators import (
     NeighbourCounter,
+    immigrants_and_children_into,
     neighbour_counts_numpy,
     newcomer_constants,
-    newcomers_into,
     newcomers_numpy,
     shared_fitness,
     survivor_indices,
@@ -64,6 +66,9 @@ class GenerationStats:
     sonar_immigrants: int
 
 
+# Sonar immigrants: candidates are drawn n at a time, at most this many times.
+_SONAR_TRIES = 8
+
 # Marks the fused fitness as computed before the flies last moved (so: for every fly again).
 _MOVED = object()
 
@@ -90,11 +95,18 @@ class FlyEngine:
         self._newcomers = self._all[config.survivors :]
         self._work = np.empty(2 * config.flies)  # selection's scratch
         self._newcomer_k = newcomer_constants(rig, config.d_min, config.d_max, self._margin)
+        # what step() needs of the (frozen) configuration, worked out once
+        self._survivors = config.survivors
+        self._n_immigrants = config.immigrants
+        self._sharing = config.sharing and config.sharing_coefficient > 0
+        self._breed = self._breeding()
         self._left: np.ndarray | None = None
         self._right: np.ndarray | None = None
         self._stamp_ns = -1
         self._sonar: SonarReading | None = None
         self._sonars = np.empty((0, 5))  # fired_sonars(self._sonar)
+        self._arcs = np.empty((0, 4))  # fired_arcs(self._sonar)
+        self._arc_k = arc_constants(rig, self._margin)
         # The reading every fly's fitness was fused with (None: fitness = vision); a fly's
         # fitness is recomputed only when its vision is, unless the reading changes.
         self._fused_with: SonarReading | object | None = None  # _MOVED after a motion
@@ -119,6 +131,7 @@ class FlyEngine:
         """Use this sonar reading (in base_link) for fusion until the next one."""
         self._sonar = reading
         self._sonars = fired_sonars(reading)
+        self._arcs = fired_arcs(reading)
 
     def apply_motion(self, increment: Pose2D) -> None:
         """Proprioception: move every fly by the inverse of the robot's motion ``increment``
@@ -164,30 +177,29 @@ class FlyEngine:
             stale = np.flatnonzero(pop.stale) if pop.stale.any() else self._all[:0]
         evaluations = self._evaluate(stale)
         self._fuse(stale)
-        sharing = cfg.sharing and cfg.sharing_coefficient > 0
-        counts = self._neighbour_counts(pop) if sharing else None
+        counts = self._neighbour_counts(pop) if self._sharing else None
         nxt = self._spare
-        n_immigrants = cfg.immigrants
+        n_immigrants = self._n_immigrants
         # random numbers in this order: sonar arcs, uniform immigrants, breeding
         if self._numba:
-            k = pop.select_into(nxt, cfg.survivors, counts, cfg.sharing_coefficient, self._work)
+            k = pop.select_into(nxt, self._survivors, counts, cfg.sharing_coefficient, self._work)
             n_children = cfg.flies - k - n_immigrants
-            from_sonar = self._sonar_immigrants(n_immigrants)
             at = k + n_children
-            nxt.xyz[at : at + len(from_sonar)] = from_sonar
-            newcomers_into(
-                self._rng, nxt.xyz[:k], *self._breeding(), self._newcomer_k,
-                nxt.xyz[k:at], nxt.xyz[at + len(from_sonar) :],
+            n_sonar = immigrants_and_children_into(
+                self._rng, nxt.xyz[:k], *self._breed, self._newcomer_k, self._arcs,
+                self._half_cone, cfg.sonar_tolerance, self._arc_k, _SONAR_TRIES,
+                self._n_sonar(n_immigrants), nxt.xyz[k:at], nxt.xyz[at:],
             )  # fmt: skip
         else:
             ranked = pop.fitness if counts is None else shared_fitness(
                 pop.fitness, counts, cfg.sharing_coefficient
             )  # fmt: skip
-            keep = survivor_indices(ranked, cfg.survivors)
+            keep = survivor_indices(ranked, self._survivors)
             k = len(keep)
             n_children = cfg.flies - k - n_immigrants
             from_sonar = self._sonar_immigrants(n_immigrants)
-            rate2, rate3, sigma_px, sigma_d = self._breeding()
+            n_sonar = len(from_sonar)
+            rate2, rate3, sigma_px, sigma_d = self._breed
             children, uniform = newcomers_numpy(
                 self._rng, pop.xyz[keep], n_children, n_immigrants - len(from_sonar), self.rig,
                 rate2=rate2, rate3=rate3, sigma_px=sigma_px, sigma_disparity_px=sigma_d,
@@ -205,7 +217,7 @@ class FlyEngine:
             survivors=k,
             offspring=n_children,
             immigrants=n_immigrants,
-            sonar_immigrants=len(from_sonar),
+            sonar_immigrants=n_sonar,
         )
 
     # --- internals --------------------------------------------------------------------------
@@ -279,12 +291,24 @@ class FlyEngine:
         u_left, _, v, _ = self.rig.project(pop.xyz)
         return neighbour_counts_numpy(u_left, v, valid, self._radius)
 
-    def _sonar_immigrants(self, n_immigrants: int) -> np.ndarray:
+    @property
+    def _half_cone(self) -> float:
+        return 0.0 if self._sonar is None else float(self._sonar.half_cone)
+
+    def _n_sonar(self, n_immigrants: int) -> int:
+        """How many of the immigrants to place on sonar arcs (0 when that is off)."""
         cfg = self.config
         if not cfg.sonar_immigration or self._sonar is None:
+            return 0
+        return round(cfg.sonar_immigration_fraction * n_immigrants)
+
+    def _sonar_immigrants(self, n_immigrants: int) -> np.ndarray:
+        """The numpy path's sonar immigrants (the compiled one draws them with the rest)."""
+        n = self._n_sonar(n_immigrants)
+        if n == 0:
             return np.empty((0, 3))
-        n = round(cfg.sonar_immigration_fraction * n_immigrants)
+        assert self._sonar is not None
         return sonar_immigrants(
-            self._rng, self._sonar, n, self.rig, tolerance=cfg.sonar_tolerance,
-            margin=self._margin, use_numba=self._numba,
+            self._rng, self._sonar, n, self.rig, tolerance=self.config.sonar_tolerance,
+            margin=self._margin, tries=_SONAR_TRIES,
         )  # fmt: skip

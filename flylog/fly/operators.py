@@ -8,6 +8,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from flylog.fly.fusion import sonar_immigrants_into
 from flylog.fly.sorting import median_in_place, select_in_place
 from flylog.geometry import StereoRig
 
@@ -75,99 +76,118 @@ def neighbour_counts_numpy(
     return near.sum(axis=1).astype(np.int64)
 
 
-# The grid never has more than this many cells per valid fly (its cells grow instead), so its
-# buffer is O(N) whatever the spread of the points.
-_CELLS_PER_FLY = 4
+# The sort never has more than this many bands, nor columns, per valid fly (they grow
+# instead), so its buffers are O(N) whatever the spread of the points.
+_BINS_PER_FLY = 4
 
 
 def grid_buffer_size(n: int) -> int:
-    """Cells' buffer length :func:`neighbour_counts_into` needs for ``n`` flies."""
-    return 3 * _CELLS_PER_FLY * n + 2
+    """Length of the int64 scratch ``starts`` :func:`neighbour_counts_into` needs for ``n``
+    flies (column and band starts, keys and a sorted index)."""
+    return 2 * _BINS_PER_FLY * n + 2 * n + 4
 
 
 @numba.njit(cache=True, nogil=True)
 def neighbour_counts_into(u, v, valid, radius, starts, order, uv, near, counts):  # pragma: no cover
-    """Same counts as :func:`neighbour_counts_numpy`, written into ``counts``, through a grid of
-    cells no smaller than R. Flies are counting-sorted by cell (row-major; ``starts`` at
-    least :func:`grid_buffer_size` long; ``order``, ``uv`` (N, 2), ``near`` at least N), so the
-    rest of a fly's cell and the cell on its right are one contiguous run of sorted flies, and
-    the 3 cells below it another; each pair is tested once, from its first fly."""
+    """Same counts as :func:`neighbour_counts_numpy`, written into ``counts``, by a sweep.
+
+    The valid flies are sorted by band (rows of height ≥ R) and, within a band, by column
+    (¼ R wide): two counting sorts, no cell grid to walk. Two flies within R are in the same
+    band or in adjacent ones and fewer than ``reach`` columns apart, so each fly is tested
+    against the flies after it in its band and the flies of the next band, both while the
+    column gap stays below ``reach`` (the latter from a pointer that only moves forward).
+    ``starts`` is int64 scratch of :func:`grid_buffer_size`; ``order``, ``uv`` (N, 2) and
+    ``near`` at least N long."""
     n = u.shape[0]
     umin, vmin, umax, vmax = np.inf, np.inf, -np.inf, -np.inf
     n_valid = 0
     for i in range(n):
         counts[i] = 0
         if valid[i]:
-            near[n_valid] = 0
             n_valid += 1
             umin, umax = min(umin, u[i]), max(umax, u[i])
             vmin, vmax = min(vmin, v[i]), max(vmax, v[i])
     if n_valid == 0:
         return
-    # A hair above R: two points R apart can never land two cells apart through rounding.
-    cell = max(radius * (1.0 + 1e-6), 1.0)
-    limit = _CELLS_PER_FLY * n_valid
+    limit = _BINS_PER_FLY * n_valid
     w, h = umax - umin, vmax - vmin
-    if (w / cell + 1.0) * (h / cell + 1.0) > limit:
-        # so that gw·gh ≤ area/cell² + (w + h)/cell + 1 ≤ 3·limit + 1
-        cell = max(cell, np.sqrt(w * h / limit), w / limit, h / limit)
-    inv = 1.0 / cell
-    gw = int(w * inv) + 1
-    gh = int(h * inv) + 1
-    n_cells = gw * gh
-    for c in range(n_cells + 2):
-        starts[c] = 0
+    # A hair above R: two points R apart can never land two bands apart through rounding.
+    band = max(radius * (1.0 + 1e-6), 1.0, h / limit)
+    column = max(band / 4.0, w / limit)
+    inv_band, inv_column = 1.0 / band, 1.0 / column
+    n_bands = int(h * inv_band) + 1
+    n_columns = int(w * inv_column) + 1
+    # Flies within R are at most ⌊R/column⌋ + 1 columns apart (1e-9 more against rounding).
+    reach = int(radius * inv_column * (1.0 + 1e-9)) + 2
+    column_start = starts[: n_columns + 1]
+    band_start = starts[n_columns + 1 : n_columns + n_bands + 3]
+    band_of = starts[n_columns + n_bands + 3 : n_columns + n_bands + 3 + n]
+    sorted_ = starts[n_columns + n_bands + 3 + n : n_columns + n_bands + 3 + 2 * n]
+    column_start[:] = 0
+    band_start[:] = 0
     for i in range(n):
         if valid[i]:
-            c = int((v[i] - vmin) * inv) * gw + int((u[i] - umin) * inv)
-            starts[c + 2] += 1
-    total = 0
-    for c in range(2, n_cells + 2):
-        total += starts[c]  # a running sum in a register: no store-to-load chain
-        starts[c] = total
-    # scatter through starts[c + 1], which ends as the end of cell c (= the start of c + 1)
+            b = int((v[i] - vmin) * inv_band)
+            band_of[i] = b
+            column_start[int((u[i] - umin) * inv_column) + 1] += 1
+            band_start[b + 2] += 1
+    for c in range(n_columns):
+        column_start[c + 1] += column_start[c]
+    for b in range(2, n_bands + 2):
+        band_start[b] += band_start[b - 1]
+    # by column, then stably by band (through band_start[b + 1], which ends as band b's end)
     for i in range(n):
         if valid[i]:
-            c = int((v[i] - vmin) * inv) * gw + int((u[i] - umin) * inv)
-            t = starts[c + 1]
-            uv[t, 0] = u[i]
-            uv[t, 1] = v[i]
-            order[t] = i
-            starts[c + 1] = t + 1
+            c = int((u[i] - umin) * inv_column)
+            sorted_[column_start[c]] = i
+            column_start[c] += 1
+    for t in range(n_valid):
+        i = sorted_[t]
+        b = band_of[i]
+        at = band_start[b + 1]
+        order[at] = i
+        band_start[b + 1] = at + 1
+    # (a separate pass: writing these in the scatter above made it several times slower)
+    for t in range(n_valid):
+        i = order[t]
+        uv[t, 0] = u[i]
+        uv[t, 1] = v[i]
+        near[t] = 0
+        sorted_[t] = int((u[i] - umin) * inv_column)  # now the column of sorted fly t
     r2 = radius * radius
-    for row in range(gh):
-        for gu in range(gw):
-            c = row * gw + gu
-            if starts[c] == starts[c + 1]:
-                continue
-            right = starts[c + 2] if gu + 1 < gw else starts[c + 1]
-            below_lo = below_hi = 0
-            if row + 1 < gh:
-                below_lo = starts[c + gw - 1] if gu > 0 else starts[c + gw]
-                below_hi = starts[c + gw + 2] if gu + 1 < gw else starts[c + gw + 1]
-            for a in range(starts[c], starts[c + 1]):
-                ua, va = uv[a, 0], uv[a, 1]
-                total = 0
-                for b in range(a + 1, right):
-                    du = ua - uv[b, 0]
-                    dv = va - uv[b, 1]
-                    hit = du * du + dv * dv <= r2
-                    total += hit
-                    near[b] += hit
-                for b in range(below_lo, below_hi):
-                    du = ua - uv[b, 0]
-                    dv = va - uv[b, 1]
-                    hit = du * du + dv * dv <= r2
-                    total += hit
-                    near[b] += hit
-                near[a] += total
+    for b in range(n_bands):
+        lo_a, hi_a = band_start[b], band_start[b + 1]
+        lo_b = hi_a
+        hi_b = band_start[b + 2] if b + 1 < n_bands else hi_a
+        for a in range(lo_a, hi_a):
+            ua, va, ca = uv[a, 0], uv[a, 1], sorted_[a]
+            total = 0
+            t = a + 1
+            while t < hi_a and sorted_[t] - ca < reach:
+                du = ua - uv[t, 0]
+                dv = va - uv[t, 1]
+                hit = du * du + dv * dv <= r2
+                total += hit
+                near[t] += hit
+                t += 1
+            while lo_b < hi_b and ca - sorted_[lo_b] >= reach:
+                lo_b += 1
+            t = lo_b
+            while t < hi_b and sorted_[t] - ca < reach:
+                du = ua - uv[t, 0]
+                dv = va - uv[t, 1]
+                hit = du * du + dv * dv <= r2
+                total += hit
+                near[t] += hit
+                t += 1
+            near[a] += total
     for t in range(n_valid):
         counts[order[t]] = near[t]
 
 
 class NeighbourCounter:
     """:func:`neighbour_counts_into` with buffers kept between calls (the engine counts
-    every generation; the grid's buffers are not reallocated each time)."""
+    every generation; the sort's buffers are not reallocated each time)."""
 
     def __init__(self) -> None:
         self._n = -1
@@ -197,7 +217,7 @@ class NeighbourCounter:
 def neighbour_counts_numba(
     u: np.ndarray, v: np.ndarray, valid: np.ndarray, radius: float
 ) -> np.ndarray:
-    """Same counts as :func:`neighbour_counts_numpy` (compiled grid, fresh buffers)."""
+    """Same counts as :func:`neighbour_counts_numpy` (compiled sweep, fresh buffers)."""
     return NeighbourCounter()(u, v, valid, radius)
 
 
@@ -437,6 +457,41 @@ def newcomers_into(
             for j in range(3):
                 r = 1.0 - t - s
                 children[i, j] = t * parents[a, j] + s * parents[b, j] + r * parents[c, j]
+
+
+@numba.njit(cache=True, nogil=True)
+def immigrants_and_children_into(
+    rng,
+    parents,
+    rate2,
+    rate3,
+    sigma_px,
+    sigma_disparity_px,
+    k,
+    arcs,
+    half_cone,
+    tolerance,
+    arc_k,
+    tries,
+    n_sonar,
+    children,
+    immigrants,
+):  # pragma: no cover - compiled
+    """A generation's newcomers in one call (the Generator is passed once: numba takes ~10 µs
+    to type one): up to ``n_sonar`` sonar immigrants first in ``immigrants``
+    (:func:`~flylog.fly.fusion.sonar_immigrants_into` with ``arcs``, ``half_cone``,
+    ``tolerance``, ``arc_k``, ``tries``; none if ``arcs`` is empty), then
+    :func:`newcomers_into` with the rest of ``immigrants`` uniform. Returns how many came from
+    the sonar."""
+    found = 0
+    if n_sonar > 0 and arcs.shape[0] > 0:
+        found = sonar_immigrants_into(
+            rng, arcs, half_cone, tolerance, arc_k, tries, immigrants[:n_sonar]
+        )
+    newcomers_into(
+        rng, parents, rate2, rate3, sigma_px, sigma_disparity_px, k, children, immigrants[found:]
+    )
+    return found
 
 
 def offspring(

@@ -211,18 +211,18 @@ def _generation_figures(pair, depth, reading, rig) -> list[dict]:
 _PROFILED = [
     ("fitness.py", "_fitness_serial"),
     ("operators.py", "neighbour_counts_into"),
-    ("operators.py", "newcomers_into"),
+    ("operators.py", "immigrants_and_children_into"),
     ("population.py", "_select_kernel"),
     ("fusion.py", "sonar_fuse_into"),
-    ("fusion.py", "sonar_immigrants"),
     ("engine.py", "step"),
 ]
 
 
 def _profile_figures(pair, reading, rig) -> list[dict]:
     """Per-kernel time per generation in replay's rhythm (a new pair after motion every 10
-    generations, sonar on), from cProfile: tottime except for the cumulative whole step and
-    sonar immigrants (drawing and building)."""
+    generations, sonar on), from cProfile: tottime, and the cumulative whole step. The
+    newcomers' kernel draws and builds the sonar immigrants, the uniform ones and the
+    children."""
     engine = FlyEngine(EngineConfig(flies=5000), rig, np.random.default_rng(0))
     engine.set_images(pair)
     engine.set_sonar(reading)
@@ -245,7 +245,7 @@ def _profile_figures(pair, reading, rig) -> list[dict]:
     for (path, _, name), (_, _, tottime, cumtime, _) in stats.items():
         for file, function in _PROFILED:
             if path.endswith(file) and name == function:
-                cumulative = name in ("step", "sonar_immigrants")
+                cumulative = name == "step"
                 seconds = cumtime if cumulative else tottime
                 figures.append(
                     {

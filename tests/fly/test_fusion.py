@@ -6,9 +6,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from flylog.fly.fusion import (
-    arc_draws,
-    arc_immigrants_numba,
-    arc_immigrants_numpy,
     fired_sonars,
     moved_by_odometry,
     sonar_confirmations,
@@ -139,20 +136,56 @@ def test_forward_motion_brings_flies_closer():
 
 
 @settings(max_examples=30, deadline=None)
-@given(st.integers(0, 2**32 - 1), st.integers(1, 120))
-def test_arc_immigrant_kernel_equals_reference(seed, n):
+@given(st.integers(0, 2**32 - 1), st.integers(1, 120), st.integers(1, 8))
+def test_sonar_immigrant_kernel_equals_reference(seed, n, tries):
     rng = np.random.default_rng(seed)
     ranges = np.where(rng.random(6) < 0.7, rng.uniform(0.3, 3.0, 6), np.nan)
     ranges[rng.integers(0, 6)] = rng.uniform(0.3, 3.0)  # at least one fired
     r = reading(ranges)
-    draws = arc_draws(rng, r, 8 * n, RIG, 0.1)
-    expected = arc_immigrants_numpy(draws, r, n, RIG, 3)
-    np.testing.assert_array_equal(arc_immigrants_numba(draws, r, n, RIG, 3), expected)
-    a = sonar_immigrants(np.random.default_rng(seed), r, n, RIG, tolerance=0.1, margin=3)
-    b = sonar_immigrants(
-        np.random.default_rng(seed), r, n, RIG, tolerance=0.1, margin=3, use_numba=True
+    numpy_rng, numba_rng = np.random.default_rng(seed), np.random.default_rng(seed)
+    expected = sonar_immigrants(numpy_rng, r, n, RIG, tolerance=0.1, margin=3, tries=tries)
+    got = sonar_immigrants(
+        numba_rng, r, n, RIG, tolerance=0.1, margin=3, tries=tries, use_numba=True
     )
-    np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(got, expected)
+    # both drew the same numbers: the streams go on alike
+    assert numpy_rng.random() == numba_rng.random()
+
+
+def test_sonar_immigrants_draw_whole_chunks_of_candidates():
+    # A sonar whose arc is always in view: the first chunk of n candidates gives all n flies,
+    # and exactly 4 numbers per candidate are drawn.
+    r = reading([np.nan, np.nan, 1.5, np.nan, np.nan, np.nan])
+    for use_numba in (True, False):
+        rng, twin = np.random.default_rng(5), np.random.default_rng(5)
+        xyz = sonar_immigrants(rng, r, 30, RIG, tolerance=0.1, margin=3, use_numba=use_numba)
+        assert len(xyz) == 30
+        twin.random(4 * 30)
+        assert rng.random() == twin.random()
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.floats(0.0, 0.3))
+def test_fused_kernel_equals_reference_at_the_range_window_edges(seed, tolerance):
+    # Flies exactly at (and a rounding error from) r ± tolerance of each sonar, in its cone:
+    # the vectorised kernel must decide them as the reference does.
+    rng = np.random.default_rng(seed)
+    ranges = np.where(rng.random(6) < 0.8, rng.uniform(0.1, 3.0, 6), np.nan)
+    ranges[rng.integers(0, 6)] = rng.uniform(0.1, 3.0)
+    r = reading(ranges)
+    flies = []
+    for s in np.flatnonzero(r.fired):
+        mx, my, yaw = MOUNTS[s]
+        for d in (ranges[s] - tolerance, ranges[s] + tolerance):
+            for eps in (-1e-12, 0.0, 1e-12):
+                b = yaw + rng.uniform(-r.half_cone, r.half_cone)
+                flies.append([mx + (d + eps) * math.cos(b), my + (d + eps) * math.sin(b), 0.2])
+    xyz = np.array(flies)
+    vision = np.ones(len(xyz))
+    expected = sonar_fused(vision, xyz, r, bonus=0.5, tolerance=tolerance, use_numba=False)
+    got = sonar_fused(vision, xyz, r, bonus=0.5, tolerance=tolerance, use_numba=True)
+    np.testing.assert_array_equal(got, expected)
+    assert (expected > 1.0).any()  # some flies are confirmed: the test can fail
 
 
 def test_fuse_into_writes_only_the_given_flies():

@@ -78,7 +78,7 @@ def test_selection_kernel_equals_reference(seed, n, share):
 
 @settings(max_examples=40, deadline=None)
 @given(st.integers(0, 2**32 - 1), st.floats(0.0, 12.0), st.integers(1, 400))
-def test_grid_hash_counts_equal_brute_force(seed, radius, n):
+def test_sweep_counts_equal_brute_force(seed, radius, n):
     rng = np.random.default_rng(seed)
     u = np.round(rng.normal(60, 15, n), 1)  # rounded: exact ties at the radius happen
     v = np.round(rng.normal(40, 10, n), 1)
@@ -237,7 +237,22 @@ def test_neighbour_counter_reuses_its_buffers_across_sizes_and_radii():
         )
 
 
-def test_grid_stays_small_for_far_spread_points():
+@pytest.mark.parametrize("radius", [0.0, 0.25, 0.5, 1.0, 2.0, 3.0, 4.0])
+def test_sweep_counts_pairs_exactly_at_the_radius(radius):
+    # A lattice of step R/2 (and points sharing positions): many pairs exactly R apart in u,
+    # in v or both, where the band and column bounds have no slack left but rounding.
+    step = radius / 2 if radius > 0 else 1.0
+    g = np.arange(12) * step
+    u, v = np.meshgrid(g, g)
+    u = np.concatenate([u.ravel(), u.ravel()[::7]]) + 3.0
+    v = np.concatenate([v.ravel(), v.ravel()[::7]]) + 5.0
+    valid = np.ones(len(u), dtype=bool)
+    expected = neighbour_counts_numpy(u, v, valid, radius)
+    assert expected.max() > 0  # some pairs are counted: the test can fail
+    np.testing.assert_array_equal(neighbour_counts_numba(u, v, valid, radius), expected)
+
+
+def test_sweep_stays_small_for_far_spread_points():
     # Two tight clusters 1e7 px apart with R = 1: a grid of R-cells would have 1e14 cells.
     rng = np.random.default_rng(10)
     u = np.concatenate([rng.normal(0, 2, 200), rng.normal(1e7, 2, 200)])
