@@ -10,6 +10,7 @@ planner, same outputs.
 from __future__ import annotations
 
 import math
+from collections import deque
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
@@ -45,10 +46,17 @@ class _TickInputs:
 
 
 @dataclass(frozen=True)
-class _TickResult:
-    t_ns: int
-    command: Command
-    row: dict[str, Any] | None  # the per-step table's row, if one is kept
+class _Outputs:
+    """What one piece of the pipeline's work writes: messages, and for a planner tick its
+    command and its row of the per-step table."""
+
+    messages: list[tuple[str, int, Any]]
+    command: Command | None = None
+    row: dict[str, Any] | None = None
+
+
+# Planner jobs that may wait for the worker thread before the engine waits for them.
+MAX_PENDING_JOBS = 8
 
 
 class StereoEngine(Protocol):
@@ -83,13 +91,14 @@ class FlyPipeline:
     per-step table per planner tick. ``write_tf`` is off in the closed loop, where the
     simulator already writes odom → base_link.
 
-    With ``planner_thread``, each planner tick runs on a worker thread while the engine goes
-    on (replay: the planner does not feed back into the engine). The tick's inputs are
-    taken at its virtual time, so results are the same as without the thread; its outputs
-    are written before anything later (the next tick, a snapshot, :meth:`flush`), so the
-    output is identical message for message. :attr:`command` is then the newest *settled*
-    command: the closed loop, which needs each command at once, runs without the thread.
-    Call :meth:`flush` when the clock has finished, and :meth:`close` in any case.
+    With ``planner_thread``, the planner's work (each tick, and the potential and path of
+    each snapshot) runs on a worker thread while the engine goes on (replay: the planner
+    does not feed back into the engine). Its inputs are taken at the virtual time of the
+    tick, the worker runs the jobs in order, and all outputs are written in the order they
+    were asked for, so the output is identical message for message; at most
+    ``MAX_PENDING_JOBS`` wait. :attr:`command` is then the newest command *written*: the
+    closed loop, which needs each command at once, runs without the thread. Call
+    :meth:`flush` when the clock has finished, and :meth:`close` in any case.
     """
 
     def __init__(
@@ -125,7 +134,7 @@ class FlyPipeline:
         self.command = Command(0.0, 0.0, Status.DRIVING)
         self.snapshots = 0
         self._worker = ThreadPoolExecutor(1, "flylog-planner") if planner_thread else None
-        self._pending_tick: Future[_TickResult] | None = None
+        self._pending: deque[Future[_Outputs]] = deque()  # outputs in the order asked for
 
     # --- the clock's Pipeline protocol -----------------------------------------------------
 
@@ -168,7 +177,6 @@ class FlyPipeline:
     # --- planner ---------------------------------------------------------------------------
 
     def _planner_tick(self, t_ns: int) -> None:
-        self.flush()
         tick = _TickInputs(
             t_ns,
             self._published,
@@ -178,25 +186,48 @@ class FlyPipeline:
             self._evaluations,
             self._odom,
         )
-        if self._worker is None:
-            self._settle(self._run_tick(tick))
-        else:
-            self._pending_tick = self._worker.submit(self._run_tick, tick)
+        self._submit(self._run_tick, tick)
 
     def flush(self) -> None:
-        """Write what the planner tick running on the worker thread produced (if any)."""
-        if self._pending_tick is not None:
-            pending, self._pending_tick = self._pending_tick, None
-            self._settle(pending.result())
+        """Write every output still waiting for the planner's worker thread."""
+        while self._pending:
+            self._emit(self._pending.popleft().result())
 
     def close(self) -> None:
         """Stop the planner's worker thread (after :meth:`flush`, or to abandon a run)."""
         if self._worker is not None:
             self._worker.shutdown(wait=True, cancel_futures=True)
             self._worker = None
-            self._pending_tick = None
+            self._pending.clear()
 
-    def _run_tick(self, tick: _TickInputs) -> _TickResult:
+    def _submit(self, job: Callable[..., _Outputs], *args: Any) -> None:
+        """Run ``job`` (planner work) on the worker, or at once without one; its outputs are
+        written after everything asked for before it."""
+        if self._worker is None:
+            self._emit(job(*args))
+            return
+        self._pending.append(self._worker.submit(job, *args))
+        while self._pending and (self._pending[0].done() or len(self._pending) > MAX_PENDING_JOBS):
+            self._emit(self._pending.popleft().result())
+
+    def _queue(self, outputs: _Outputs) -> None:
+        """Outputs made now, written after everything asked for before them."""
+        if not self._pending:
+            self._emit(outputs)
+            return
+        done: Future[_Outputs] = Future()
+        done.set_result(outputs)
+        self._pending.append(done)
+
+    def _emit(self, outputs: _Outputs) -> None:
+        for topic, t_ns, message in outputs.messages:
+            self._write(topic, t_ns, message)
+        if outputs.command is not None:
+            self.command = outputs.command
+        if outputs.row is not None and self._on_row is not None:
+            self._on_row(outputs.row)
+
+    def _run_tick(self, tick: _TickInputs) -> _Outputs:
         """The planner's work at one tick: obstacles in, relaxation, command, table row."""
         pop = tick.population
         if pop is None:
@@ -208,8 +239,11 @@ class FlyPipeline:
         change = self.planner.relax()
         pose, t_ns = tick.odom.pose, tick.t_ns
         command = self.planner.command(pose, t_ns / 1e9)
+        status = contract.CommandStatus(command.status.value)
+        message = encode.command(command.linear, command.angular, status, t_ns)
+        messages = [(contract.PLANNER_COMMAND, t_ns, message)]
         if self._on_row is None:
-            return _TickResult(t_ns, command, None)
+            return _Outputs(messages, command)
         valid = pop.fitness[pop.fitness > 0] if pop is not None else np.empty(0)
         row = {
             "t": t_ns / 1e9,
@@ -228,60 +262,44 @@ class FlyPipeline:
             "theta": pose.theta,
             "linear": command.linear,
             "angular": command.angular,
-            "status": command.status.value,
+            "status": status.value,
             "potential_change": change,
         }
-        return _TickResult(t_ns, command, row)
-
-    def _settle(self, result: _TickResult) -> None:
-        self.command = command = result.command
-        status = contract.CommandStatus(command.status.value)
-        self._write(
-            contract.PLANNER_COMMAND,
-            result.t_ns,
-            encode.command(command.linear, command.angular, status, result.t_ns),
-        )
-        if self._on_row is not None and result.row is not None:
-            self._on_row(result.row)
+        return _Outputs(messages, command, row)
 
     # --- snapshots -------------------------------------------------------------------------
 
     def _snapshot(self, t_ns: int) -> None:
-        self.flush()
         self.snapshots += 1
         pop = self._published
         if pop is not None:
-            self._write(
-                contract.FLIES,
-                t_ns,
-                encode.point_cloud(pop.xyz, pop.fitness, t_ns, contract.BASE_FRAME, pop.age),
-            )
             uv, colours = self._overlay(pop)
-            self._write(contract.FLIES_OVERLAY, t_ns, encode.image_annotations(uv, colours, t_ns))
-            if self._write_tf:
-                self._write(
-                    contract.TF,
+            messages = [
+                (
+                    contract.FLIES,
                     t_ns,
-                    encode.frame_transforms([encode.odom_transform(self._published_pose)], t_ns),
-                )
+                    encode.point_cloud(pop.xyz, pop.fitness, t_ns, contract.BASE_FRAME, pop.age),
+                ),
+                (contract.FLIES_OVERLAY, t_ns, encode.image_annotations(uv, colours, t_ns)),
+            ]
+            if self._write_tf:
+                transform = encode.odom_transform(self._published_pose)
+                messages.append((contract.TF, t_ns, encode.frame_transforms([transform], t_ns)))
+            self._queue(_Outputs(messages))
+        self._submit(self._planner_snapshot, t_ns, self._odom.pose)
+
+    def _planner_snapshot(self, t_ns: int, robot_pose: Pose2D) -> _Outputs:
+        """The potential and the path the robot would follow from ``robot_pose``, now."""
         ox, oy = self.planner.origin
-        self._write(
-            contract.PLANNER_POTENTIAL,
-            t_ns,
-            encode.grid(
-                self.planner.potential,
-                Pose2D(ox, oy, 0.0),
-                self.planner.cell_size,
-                t_ns,
-                contract.ODOM_FRAME,
-            ),
+        grid = encode.grid(
+            self.planner.potential, Pose2D(ox, oy, 0.0), self.planner.cell_size, t_ns,
+            contract.ODOM_FRAME,
+        )  # fmt: skip
+        path = encode.poses_in_frame(
+            path_poses(self.planner.path(robot_pose)), t_ns, contract.ODOM_FRAME
         )
-        self._write(
-            contract.PLANNER_PATH,
-            t_ns,
-            encode.poses_in_frame(
-                path_poses(self.planner.path(self._odom.pose)), t_ns, contract.ODOM_FRAME
-            ),
+        return _Outputs(
+            [(contract.PLANNER_POTENTIAL, t_ns, grid), (contract.PLANNER_PATH, t_ns, path)]
         )
 
     def _overlay(self, pop: Population) -> tuple[np.ndarray, np.ndarray]:
