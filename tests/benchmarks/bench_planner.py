@@ -40,7 +40,9 @@ def _reconvergence(cfg: PlannerConfig) -> dict[str, float]:
     warm = planner.relax_until(1e-10, 200_000)
     ys = np.arange(-1.0, 1.0, 0.02)
     wall = np.column_stack([np.full_like(ys, 1.5), ys])
-    planner.update_obstacles(wall, robot, np.radians(30.0))
+    for _ in range(cfg.confirm_after_views):  # a cell becomes an obstacle once confirmed
+        planner.update_obstacles(wall, robot, np.radians(30.0))
+    assert planner.detected_mask.any(), "the wall was not taken for an obstacle"
     previous = planner.trace_path(robot)
     ticks_change = ticks_path = -1
     tick_seconds = []
