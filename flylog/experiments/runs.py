@@ -78,10 +78,17 @@ def replay_and_score(log: Path, run: Path, config: ReplayConfig) -> ScoredRun:
     return score(run, log)
 
 
+# The experiments' images are small: their truth is rendered at every pixel (flylog metrics
+# renders 640×480 in 4×4 blocks for speed; a threshold metric such as the detection latency
+# can move with a single fly judged against an interpolated depth).
+EVERY_PIXEL = 1_000_000  # MetricsConfig.truth_width at or above the image width
+
+
 def score(run: Path, log: Path) -> ScoredRun:
+    from flylog.metrics.config import MetricsConfig
     from flylog.metrics.score import score_run
 
-    result = score_run(run, log)
+    result = score_run(run, log, MetricsConfig(truth_width=EVERY_PIXEL))
     return ScoredRun(log, run, result.summary, result.snapshots, result.obstacles)
 
 
