@@ -18,8 +18,6 @@ import sys
 import time
 from pathlib import Path
 
-from mcap.writer import Writer
-
 from flylog.io import contract, open_log
 from flylog.metrics.config import MetricsConfig
 from flylog.metrics.score import run_facts, score_run
@@ -28,6 +26,7 @@ from flylog.replay.config import ReplayConfig
 from flylog.replay.run import replay
 from flylog.scene import load_scene
 from flylog.sim.run import SimulationOptions, simulate
+from tests.logcopy import copy_log
 
 SCENES = Path(__file__).resolve().parents[2] / "fixtures" / "scenes"
 DURATION = 10.0
@@ -40,29 +39,16 @@ COMPARED = ("precision", "recall", "f_score", "median_depth_error", "nearest_err
 
 def _without_record(source: Path, target: Path) -> Path:
     """A copy of a log without the trajectories record: how logs were before issue 5."""
-    reader = open_log(source)
-    with target.open("wb") as fh:
-        writer = Writer(fh, chunk_size=4 * 1024 * 1024, use_summary_offsets=False)
-        writer.start()
-        for name, values in reader.metadata().items():
-            if name != contract.TRAJECTORIES_METADATA:
-                writer.add_metadata(name, values)
-        for a in reader.attachments():
-            writer.add_attachment(0, a.log_time_ns, a.name, a.media_type, a.data)
-        schemas: dict[str, int] = {}
-        channels: dict[str, int] = {}
-        for raw in reader.raw_messages():
-            s, topic = raw.schema, raw.channel.topic
-            if s.name not in schemas:
-                schemas[s.name] = writer.register_schema(s.name, s.encoding, s.data)
-            if topic not in channels:
-                channels[topic] = writer.register_channel(
-                    topic, raw.channel.message_encoding, schemas[s.name]
-                )
-            m = raw.message
-            writer.add_message(channels[topic], m.log_time, m.data, m.publish_time, m.sequence)
-        writer.finish()
-    return target
+    return copy_log(
+        source,
+        target,
+        metadata=lambda records: {
+            name: values
+            for name, values in records.items()
+            if name != contract.TRAJECTORIES_METADATA
+        },
+        chunk_size=4 * 1024 * 1024,
+    )
 
 
 def _best(fn, repeats: int = REPEATS) -> tuple[float, object]:

@@ -2,12 +2,10 @@
 it has one, else (older, filtered or unfinished logs) streamed from the topics."""
 
 import json
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 import pytest
-from mcap.writer import Writer
 
 from flylog.io import contract, open_log
 from flylog.io.scan import TruncatedLogWarning
@@ -15,36 +13,9 @@ from flylog.metrics.config import MetricsConfig
 from flylog.metrics.score import score_run
 from flylog.metrics.truth import TrajectorySource, read_poses, read_truth
 from flylog.metrics.tum import export_tum
+from tests.logcopy import copy_log
 
 from .helpers import surface_flies, write_run
-
-Edit = Callable[[dict[str, dict[str, str]]], dict[str, dict[str, str]]]
-
-
-def rewrite(source: Path, target: Path, edit: Edit, *, chunk_size: int = 1 << 20) -> Path:
-    """A byte-for-byte copy of a log's messages and attachments, its metadata edited."""
-    reader = open_log(source)
-    with target.open("wb") as fh:
-        writer = Writer(fh, chunk_size=chunk_size, use_summary_offsets=False)
-        writer.start()
-        for name, values in edit(reader.metadata()).items():
-            writer.add_metadata(name, values)
-        for a in reader.attachments():
-            writer.add_attachment(0, a.log_time_ns, a.name, a.media_type, a.data)
-        schemas: dict[str, int] = {}
-        channels: dict[str, int] = {}
-        for raw in reader.raw_messages():
-            topic, s = raw.channel.topic, raw.schema
-            if s.name not in schemas:
-                schemas[s.name] = writer.register_schema(s.name, s.encoding, s.data)
-            if topic not in channels:
-                channels[topic] = writer.register_channel(
-                    topic, raw.channel.message_encoding, schemas[s.name]
-                )
-            m = raw.message
-            writer.add_message(channels[topic], m.log_time, m.data, m.publish_time, m.sequence)
-        writer.finish()
-    return target
 
 
 def streamed(path: Path):
@@ -69,7 +40,7 @@ def test_a_log_without_the_record_is_read_from_its_topics(sensor_log, truth, tmp
     def drop(meta):
         return {k: v for k, v in meta.items() if k != contract.TRAJECTORIES_METADATA}
 
-    older = rewrite(sensor_log, tmp_path / "older.mcap", drop)
+    older = copy_log(sensor_log, tmp_path / "older.mcap", metadata=drop)
     got = read_truth(older)
     assert got.source is TrajectorySource.TOPICS
     assert_same(got.true, truth.true)
@@ -93,14 +64,14 @@ def test_a_record_that_does_not_fit_the_topics_is_ignored(sensor_log, truth, tmp
     def edit(meta):
         return {**meta, contract.TRAJECTORIES_METADATA: spoil(meta[contract.TRAJECTORIES_METADATA])}
 
-    got = read_truth(rewrite(sensor_log, tmp_path / "spoilt.mcap", edit))
+    got = read_truth(copy_log(sensor_log, tmp_path / "spoilt.mcap", metadata=edit))
     assert got.source is TrajectorySource.TOPICS
     assert_same(got.true, truth.true)
 
 
 def test_a_truncated_log_is_read_from_its_topics_up_to_the_damage(sensor_log, truth, tmp_path):
     cut = tmp_path / "cut.mcap"
-    data = rewrite(sensor_log, tmp_path / "chunky.mcap", dict, chunk_size=64 * 1024).read_bytes()
+    data = copy_log(sensor_log, tmp_path / "chunky.mcap", chunk_size=64 * 1024).read_bytes()
     cut.write_bytes(data[: len(data) * 2 // 3])
     with pytest.warns(TruncatedLogWarning):
         got = read_truth(cut)
@@ -119,7 +90,7 @@ def test_metrics_are_the_same_from_the_record_and_from_the_topics(sensor_log, tr
     def drop(meta):
         return {k: v for k, v in meta.items() if k != contract.TRAJECTORIES_METADATA}
 
-    older = rewrite(sensor_log, tmp_path / "older.mcap", drop)
+    older = copy_log(sensor_log, tmp_path / "older.mcap", metadata=drop)
     config = MetricsConfig(tau=0.04)
     a = score_run(run, sensor_log, config)
     b = score_run(run, older, config)
@@ -134,7 +105,7 @@ def test_tum_export_is_the_same_from_the_record_and_from_the_topics(sensor_log, 
     def drop(meta):
         return {k: v for k, v in meta.items() if k != contract.TRAJECTORIES_METADATA}
 
-    older = rewrite(sensor_log, tmp_path / "older.mcap", drop)
+    older = copy_log(sensor_log, tmp_path / "older.mcap", metadata=drop)
     new = export_tum(sensor_log, tmp_path / "new")
     old = export_tum(older, tmp_path / "old")
     assert set(new) == set(old) == {"true", "odom"}

@@ -7,7 +7,6 @@ from pathlib import Path
 import pyarrow.parquet as pq
 import pytest
 from click.testing import CliRunner
-from mcap.writer import Writer
 
 from flylog.cli.main import cli
 from flylog.config import from_mapping
@@ -15,6 +14,7 @@ from flylog.io import contract
 from flylog.io.reader import open_log
 from flylog.replay.config import ReplayConfig
 from flylog.replay.run import replay
+from tests.logcopy import copy_log
 
 LOGS = Path(__file__).resolve().parents[2] / "fixtures" / "logs"
 CORRIDOR = LOGS / "corridor.mcap"
@@ -75,40 +75,22 @@ def test_effective_config_is_stored_and_reproduces_the_run(corridor_run, tmp_pat
 
 def test_never_reads_truth(corridor_run, tmp_path):
     blind = tmp_path / "no-truth.mcap"
-    copy_log(CORRIDOR, blind, lambda topic: not topic.startswith(contract.TRUTH_PREFIX),
-             metadata=lambda name: name != contract.TRAJECTORIES_METADATA)  # fmt: skip
+    copy_log(
+        CORRIDOR,
+        blind,
+        topics=lambda topic: not topic.startswith(contract.TRUTH_PREFIX),
+        metadata=lambda records: {
+            name: values
+            for name, values in records.items()
+            if name != contract.TRAJECTORIES_METADATA
+        },
+        attachments=False,  # the scene file is ground truth too
+    )
     assert not any(t.startswith("/truth/") for t in open_log(blind).topics())
     assert contract.TRAJECTORIES_METADATA in open_log(CORRIDOR).metadata()
     assert contract.TRAJECTORIES_METADATA not in open_log(blind).metadata()
     run = replay(blind, tmp_path / "run.mcap", SMALL)
     assert content(run.output) == content(corridor_run.output)
-
-
-def copy_log(source, target, keep, *, chunk_size=4 * 1024 * 1024, metadata=lambda name: True):
-    """Copy a log's metadata records that ``metadata`` accepts and the messages of the topics
-    ``keep`` accepts, byte for byte."""
-    reader = open_log(source)
-    schemas, channels = {}, {}
-    with target.open("wb") as fh:
-        writer = Writer(fh, chunk_size=chunk_size, use_summary_offsets=False)
-        writer.start()
-        for name, values in reader.metadata().items():
-            if metadata(name):
-                writer.add_metadata(name, values)
-        for raw in reader.raw_messages():
-            topic = raw.channel.topic
-            if not keep(topic):
-                continue
-            if topic not in channels:
-                s = raw.schema
-                if s.name not in schemas:
-                    schemas[s.name] = writer.register_schema(s.name, s.encoding, s.data)
-                channels[topic] = writer.register_channel(
-                    topic, raw.channel.message_encoding, schemas[s.name]
-                )
-            writer.add_message(channels[topic], raw.message.log_time, raw.message.data,
-                               raw.message.publish_time)  # fmt: skip
-        writer.finish()
 
 
 def test_sync_sees_images_at_least_one_frame_late_async_sooner(tmp_path):
@@ -170,7 +152,7 @@ def test_cli_bad_log_exit_2_and_no_output(tmp_path, make, needle):
 
 def test_cli_log_without_images_names_missing_and_present_topics(tmp_path):
     log = tmp_path / "odom-only.mcap"
-    copy_log(CORRIDOR, log, lambda topic: topic == contract.ODOM)
+    copy_log(CORRIDOR, log, topics=lambda topic: topic == contract.ODOM, attachments=False)
     result = CliRunner().invoke(cli, ["replay", str(log), "-o", str(tmp_path / "r.mcap")])
     assert result.exit_code == 2
     assert "lacks topic(s) /camera/left/image" in result.output
@@ -179,7 +161,7 @@ def test_cli_log_without_images_names_missing_and_present_topics(tmp_path):
 
 def test_cli_truncated_log_is_replayed_with_a_warning(tmp_path):
     chunked = tmp_path / "chunked.mcap"  # small chunks, so a cut keeps most of the log
-    copy_log(CORRIDOR, chunked, lambda topic: True, chunk_size=64 * 1024)
+    copy_log(CORRIDOR, chunked, attachments=False, chunk_size=64 * 1024)
     cut = tmp_path / "cut.mcap"
     cut.write_bytes(chunked.read_bytes()[: chunked.stat().st_size * 2 // 3])
     out = tmp_path / "run.mcap"
