@@ -87,6 +87,22 @@ def grid_buffer_size(n: int) -> int:
     return 2 * _BINS_PER_FLY * n + 2 * n + 4
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _count_run(ua, va, ca, uv, sorted_, near, t, hi, reach, r2):  # pragma: no cover - compiled
+    """Pairs within R between the fly at (ua, va) (sort key ca) and the sorted flies t…hi
+    whose keys are less than ``reach`` above ca: adds 1 to ``near`` of each, returns their
+    number."""
+    total = 0
+    while t < hi and sorted_[t] - ca < reach:
+        du = ua - uv[t, 0]
+        dv = va - uv[t, 1]
+        hit = du * du + dv * dv <= r2
+        total += hit
+        near[t] += hit
+        t += 1
+    return total
+
+
 @numba.njit(cache=True, nogil=True)
 def neighbour_counts_into(u, v, valid, radius, starts, order, uv, near, counts):  # pragma: no cover
     """Same counts as :func:`neighbour_counts_numpy`, written into ``counts``, by a sweep.
@@ -161,25 +177,10 @@ def neighbour_counts_into(u, v, valid, radius, starts, order, uv, near, counts):
         hi_b = band_start[b + 2] if b + 1 < n_bands else hi_a
         for a in range(lo_a, hi_a):
             ua, va, ca = uv[a, 0], uv[a, 1], sorted_[a]
-            total = 0
-            t = a + 1
-            while t < hi_a and sorted_[t] - ca < reach:
-                du = ua - uv[t, 0]
-                dv = va - uv[t, 1]
-                hit = du * du + dv * dv <= r2
-                total += hit
-                near[t] += hit
-                t += 1
+            total = _count_run(ua, va, ca, uv, sorted_, near, a + 1, hi_a, reach, r2)
             while lo_b < hi_b and ca - sorted_[lo_b] >= reach:
                 lo_b += 1
-            t = lo_b
-            while t < hi_b and sorted_[t] - ca < reach:
-                du = ua - uv[t, 0]
-                dv = va - uv[t, 1]
-                hit = du * du + dv * dv <= r2
-                total += hit
-                near[t] += hit
-                t += 1
+            total += _count_run(ua, va, ca, uv, sorted_, near, lo_b, hi_b, reach, r2)
             near[a] += total
     for t in range(n_valid):
         counts[order[t]] = near[t]
