@@ -21,11 +21,30 @@ class PlannerConfig:
     """The grid, its relaxation, obstacle detection from flies, and the unicycle steering."""
 
     extent: float = param(
-        20.0, help="side of the square grid over the odometric frame", unit="m", min=0.5
+        20.0,
+        help="side of the square grid over the odometric frame (centred between start and "
+        "goal): its border is an obstacle, so a grid much larger than the mission lets the "
+        "harmonic field prefer wide detours around the scene to gaps between obstacles; "
+        "14 m on corridor/clutter stopped those but saturated U near 1 and stalled the robot",
+        unit="m",
+        min=0.5,
     )
     cell_size: float = param(0.1, help="side of one grid cell", unit="m", min=0.005)
     sweeps_per_tick: int = param(
         40, help="red–black SOR sweeps run at each planner tick", min=1, max=100_000
+    )
+    max_sweeps_per_tick: int = param(
+        40,
+        help="a tick keeps sweeping (in chunks of sweeps_per_tick) while the last sweep "
+        "changed a cell by more than relax_tolerance, up to this many sweeps in all "
+        "(at most sweeps_per_tick: a fixed number of sweeps per tick)",
+        min=1,
+        max=1_000_000,
+    )
+    relax_tolerance: float = param(
+        1e-10,
+        help="largest change of a sweep below which a tick stops sweeping early",
+        min=0.0,
     )
     omega: float = param(
         1.9, help="SOR over-relaxation factor (1 = Gauss–Seidel; must stay below 2)", min=0.5
@@ -47,7 +66,14 @@ class PlannerConfig:
         min=0.0,
     )
     robot_radius: float = param(
-        0.3, help="obstacles are inflated by this radius", unit="m", min=0.0
+        0.3, help="radius of the robot's footprint: obstacles are inflated by it", unit="m", min=0.0
+    )
+    inflation_margin: float = param(
+        0.1,
+        help="added to robot_radius when inflating obstacles: room for the stereo depth error "
+        "of the obstacle flies, the grid's quantisation and odometric drift",
+        unit="m",
+        min=0.0,
     )
     escape_rise: float = param(
         0.1,
@@ -74,16 +100,72 @@ class PlannerConfig:
         min=1,
         max=10_000,
     )
+    clear_min_range: float = param(
+        0.0,
+        help="remembered obstacle cells nearer than this to the robot are never cleared as "
+        "seen free: close up, an obstacle fills the view, lies nearer than the depths the "
+        "engine searches (engine.d_min + the camera's mount) and loses its flies, which is "
+        "no evidence that it has gone (0 = off; 1.0 stopped cleared-box collisions on "
+        "clutter but also kept phantom cells near the goal, which stalled the robot)",
+        unit="m",
+        min=0.0,
+    )
     view_range: float = param(
         6.0, help="default camera view range for obstacle updates", unit="m", min=0.0
     )
     max_linear_speed: float = param(0.5, help="maximum forward speed", unit="m/s", min=0.0)
-    max_angular_speed: float = param(1.0, help="maximum turn rate", unit="rad/s", min=0.0)
+    max_angular_speed: float = param(
+        1.0,
+        help="maximum turn rate (the simulated odometry's heading noise grows with the turn "
+        "rate: slower turns drift less per radian turned)",
+        unit="rad/s",
+        min=0.0,
+    )
     heading_gain: float = param(
         2.0, help="turn rate per radian of heading error", unit="1/s", min=0.0
     )
+    turn_in_place_deg: float = param(
+        60.0,
+        help="heading error beyond which the robot turns in place (no forward speed); below "
+        "it the forward speed falls from the maximum (facing the direction) to 0 at this error",
+        unit="deg",
+        min=1.0,
+        max=180.0,
+    )
+    obstacle_slowdown: float = param(
+        0.5,
+        help="the forward speed is scaled by (clearance / this) when the nearest obstacle cell "
+        "is closer than robot_radius + this (0 = never slow down near obstacles)",
+        unit="m",
+        min=0.0,
+    )
+    min_speed_fraction: float = param(
+        0.2,
+        help="the obstacle slow-down never takes the forward speed below this fraction of "
+        "max_linear_speed (the robot must still be able to leave)",
+        min=0.0,
+        max=1.0,
+    )
     goal_tolerance: float = param(
-        0.2, help="distance to the goal at which it counts as reached", unit="m", min=0.0
+        0.05,
+        help="the planner stops (GOAL_REACHED) when its ODOMETRIC position is this close to the "
+        "goal; the metrics judge the true position with their own, separate tolerance",
+        unit="m",
+        min=0.0,
+    )
+    goal_approach_distance: float = param(
+        0.3,
+        help="within this distance the robot steers straight at the goal point instead of "
+        "along −∇U, whose sink is the goal cell's centre (up to half a cell diagonal away)",
+        unit="m",
+        min=0.0,
+    )
+    goal_slowdown: float = param(
+        0.5,
+        help="within this distance of the goal the forward speed is scaled by (distance / "
+        "this), so the robot stops inside goal_tolerance instead of overshooting it",
+        unit="m",
+        min=0.0,
     )
     stuck_time: float = param(
         20.0,
@@ -127,8 +209,8 @@ class PlannerConfig:
 
     @property
     def inflation_cells(self) -> float:
-        """The robot radius in cells."""
-        return self.robot_radius / self.cell_size
+        """The inflation radius (robot radius plus margin) in cells."""
+        return (self.robot_radius + self.inflation_margin) / self.cell_size
 
     @property
     def density_window_cells(self) -> int:

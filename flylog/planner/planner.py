@@ -27,6 +27,7 @@ from flylog.planner.steering import (
     PlannedPath,
     ProgressMonitor,
     Status,
+    speed_factor,
     unicycle_command,
 )
 from flylog.planner.trace import descend_on_grid
@@ -139,8 +140,9 @@ class HarmonicPlanner:
         Cells dense inside the view sector for ``confirm_after_views`` updates in a row
         become obstacles; cells outside the view keep
         what they were; with ``clear_free_cells``, a remembered cell seen free (in view,
-        not dense, not in a detection's shadow) ``clear_after_views`` updates in a row is
-        forgotten. Returns how many inflated obstacle cells changed.
+        not dense, not in a detection's shadow, at least ``clear_min_range`` away)
+        ``clear_after_views`` updates in a row is forgotten. Returns how many inflated
+        obstacle cells changed.
         """
         cfg = self.config
         vr = cfg.view_range if view_range is None else float(view_range)
@@ -162,6 +164,7 @@ class HarmonicPlanner:
         if cfg.clear_free_cells:
             # a dense cell is not free, and hides what lies behind it, confirmed or not
             free = obs.seen_free(in_view, dense_now, rng, bearing, half_fov, cfg.cell_size, vr)
+            free &= rng >= cfg.clear_min_range
             seen = np.zeros_like(self._seen_free_count)
             seen[rows, cols] = np.where(free, self._seen_free_count[rows, cols] + 1, 0)
             self._seen_free_count = seen
@@ -185,14 +188,28 @@ class HarmonicPlanner:
     # ----------------------------------------------------------------- relaxation
 
     def relax(self, sweeps: int | None = None) -> float:
-        """Run ``sweeps`` (default: the configured sweeps per tick) SOR sweeps; return the
-        largest change of the last sweep."""
-        n = self.config.sweeps_per_tick if sweeps is None else int(sweeps)
+        """Run ``sweeps`` SOR sweeps; return the largest change of the last sweep.
+
+        By default (a planner tick): ``sweeps_per_tick`` sweeps, then more in chunks of as
+        many while the last sweep still changed a cell by more than ``relax_tolerance``, up
+        to ``max_sweeps_per_tick`` in all. Far from the goal, behind obstacles, U is within
+        1e-5 of 1 and its gradient tiny: the transient of an obstacle update would steer
+        the robot (it spins in place) unless the field is relaxed that far."""
+        cfg = self.config
+        n = cfg.sweeps_per_tick if sweeps is None else int(sweeps)
         if n < 0:
             msg = f"sweeps must be at least 0, got {n}"
             raise ValueError(msg)
         self._grad_cache = None
-        return sor_sweeps(self._u, self._fixed, self.config.omega, n, self.config.relaxation)
+        change = sor_sweeps(self._u, self._fixed, cfg.omega, n, cfg.relaxation)
+        if sweeps is not None:
+            return change
+        done = n
+        while change > cfg.relax_tolerance and done < cfg.max_sweeps_per_tick:
+            more = min(n, cfg.max_sweeps_per_tick - done)
+            change = sor_sweeps(self._u, self._fixed, cfg.omega, more, cfg.relaxation)
+            done += more
+        return change
 
     def relax_until(self, tolerance: float, max_sweeps: int, chunk: int = 10) -> RelaxResult:
         """Sweep in chunks until the last sweep's largest change is at most ``tolerance`` or
@@ -221,23 +238,51 @@ class HarmonicPlanner:
     def command(self, robot_pose: Pose2D, t: float) -> Command:
         """Velocities along −∇U at the robot, and the status at time ``t`` (seconds).
 
-        GOAL_REACHED (zero velocities) within the goal tolerance; STUCK when the distance to
-        the goal has not improved by ``stuck_progress`` for ``stuck_time`` (the steering
-        command is still given: the caller decides whether to stop)."""
+        GOAL_REACHED (zero velocities) within the goal tolerance; within
+        ``goal_approach_distance`` the robot steers straight at the goal point. The forward
+        speed is scaled down near the goal (``goal_slowdown``) and near remembered obstacles
+        (``obstacle_slowdown``, :meth:`clearance`). STUCK when the distance to the goal has
+        not improved by ``stuck_progress`` for ``stuck_time`` (the steering command is still
+        given: the caller decides whether to stop)."""
         cfg = self.config
-        distance = math.hypot(robot_pose.x - self.goal[0], robot_pose.y - self.goal[1])
+        dx, dy = self.goal[0] - robot_pose.x, self.goal[1] - robot_pose.y
+        distance = math.hypot(dx, dy)
         if distance <= cfg.goal_tolerance:
             return Command(0.0, 0.0, Status.GOAL_REACHED)
         stuck = self._monitor.update(distance, t)
-        gx, gy = self.gradient(robot_pose.x, robot_pose.y)
+        if distance <= cfg.goal_approach_distance:
+            direction = (dx, dy)
+        else:
+            gx, gy = self.gradient(robot_pose.x, robot_pose.y)
+            direction = (-gx, -gy)
         linear, angular = unicycle_command(
             robot_pose,
-            (-gx, -gy),
+            direction,
             max_linear=cfg.max_linear_speed,
             max_angular=cfg.max_angular_speed,
             heading_gain=cfg.heading_gain,
+            turn_in_place=math.radians(cfg.turn_in_place_deg),
         )
+        near_goal = speed_factor(distance, cfg.goal_slowdown)
+        reach = cfg.robot_radius + cfg.obstacle_slowdown
+        near_obstacle = speed_factor(
+            self.clearance(robot_pose.x, robot_pose.y, reach) - cfg.robot_radius,
+            cfg.obstacle_slowdown,
+            cfg.min_speed_fraction,
+        )
+        linear *= min(near_goal, near_obstacle)
         return Command(linear, angular, Status.STUCK if stuck else Status.DRIVING)
+
+    def clearance(self, x: float, y: float, reach: float) -> float:
+        """Distance (m) from (x, y) to the nearest remembered obstacle cell's centre, if one
+        lies within ``reach``; inf otherwise."""
+        rows, cols = self._window(Pose2D(x, y, 0.0), reach)
+        ii, jj = np.nonzero(self._remembered[rows, cols])
+        if not len(ii):
+            return math.inf
+        cx, cy = self.geometry.centre_of(ii + rows.start, jj + cols.start)
+        d = float(np.min(np.hypot(cx - x, cy - y)))
+        return d if d <= reach else math.inf
 
     def trace_path(self, robot_pose: Pose2D) -> PlannedPath:
         """Gradient descent from the robot (bounded by ``path_max_steps``), and why it

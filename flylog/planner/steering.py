@@ -58,17 +58,30 @@ def unicycle_command(
     max_linear: float,
     max_angular: float,
     heading_gain: float,
+    turn_in_place: float = math.pi / 2,
 ) -> tuple[float, float]:
     """(linear, angular) turning the robot towards ``direction_xy`` (any length): a
-    proportional, saturated turn, and forward speed ``max_linear·cos(error)`` that drops to
-    zero when the direction is behind (the robot then turns in place)."""
+    proportional, saturated turn, and a forward speed that falls from ``max_linear`` (facing
+    the direction) to zero at a heading error of ``turn_in_place`` radians, as
+    ``(cos(error) - cos(turn_in_place)) / (1 - cos(turn_in_place))``; beyond it the robot
+    turns in place. The default (pi/2) gives ``max_linear·cos(error)``. Turning in place
+    before driving keeps the robot on the descent line instead of swinging wide of it."""
     dx, dy = direction_xy
     if math.hypot(dx, dy) <= FLAT_GRADIENT:
         return 0.0, 0.0
     error = wrap_angle(math.atan2(dy, dx) - pose.theta)
     angular = min(max(heading_gain * error, -max_angular), max_angular)
-    linear = max_linear * max(0.0, math.cos(error))
+    floor = math.cos(min(max(turn_in_place, 1e-6), math.pi))
+    linear = max_linear * max(0.0, (math.cos(error) - floor) / (1.0 - floor))
     return linear, angular
+
+
+def speed_factor(distance: float, slowdown: float, floor: float = 0.0) -> float:
+    """The share of the full forward speed at ``distance`` from what slows the robot down:
+    ``distance / slowdown`` clamped to [floor, 1] (1 when ``slowdown`` is 0: no slow-down)."""
+    if slowdown <= 0.0:
+        return 1.0
+    return min(1.0, max(floor, distance / slowdown))
 
 
 @dataclass

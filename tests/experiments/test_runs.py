@@ -80,6 +80,8 @@ def test_closed_loop_reports_each_scene(results):
         # 1 s cannot reach a goal 10 m away
         assert r["goal_reached"] is False and r["success"] is False
         assert math.isfinite(r["path_length_m"]) and r["path_length_m"] < 1.0
+        # the true and odometric positions part by at most a few centimetres in 1 s
+        assert 0.0 <= r["final_drift_m"] < 0.05
 
 
 def test_sonar_counts_the_post(results):

@@ -10,7 +10,12 @@ from flylog.planner.grid import GridGeometry
 
 # 10 m grid at 0.1 m centred on the origin; the robot at the origin looking along +x.
 CFG = PlannerConfig(
-    extent=10.0, cell_size=0.1, robot_radius=0.0, density_radius=0.1, confirm_after_views=1
+    extent=10.0,
+    cell_size=0.1,
+    robot_radius=0.0,
+    inflation_margin=0.0,
+    density_radius=0.1,
+    confirm_after_views=1,
 )
 ROBOT = Pose2D(0.0, 0.0, 0.0)
 FOV = math.radians(30.0)
@@ -137,6 +142,20 @@ def test_obstacles_seen_free_are_cleared_after_the_configured_views():
     assert not p.detected_mask[cell]
     assert changed == 1
     assert not p.obstacle_mask.any()
+
+
+def test_obstacles_nearer_than_clear_min_range_are_never_cleared():
+    # close up an obstacle loses its flies (nearer than the engine searches): no evidence
+    p = _planner(clear_after_views=1, clear_min_range=1.0)
+    p.update_obstacles(np.vstack([_cluster(0.85, 0.05, 10), _cluster(2.05, 0.05, 10)]), ROBOT, FOV)
+    near, far = _cell(p, 0.85, 0.05), _cell(p, 2.05, 0.05)
+    assert p.detected_mask[near] and p.detected_mask[far]
+    for _ in range(5):
+        p.update_obstacles(np.empty((0, 2)), ROBOT, FOV)
+    assert p.detected_mask[near] and not p.detected_mask[far]
+    # once the robot has backed off beyond the range, the cell may be seen free again
+    p.update_obstacles(np.empty((0, 2)), Pose2D(-0.5, 0.0, 0.0), FOV)
+    assert not p.detected_mask[near]
 
 
 def test_clearing_can_be_switched_off():

@@ -14,9 +14,9 @@ from flylog.planner import (
     RelaxEnd,
     Status,
 )
-from flylog.planner.steering import unicycle_command
+from flylog.planner.steering import speed_factor, unicycle_command
 
-SMALL = PlannerConfig(extent=6.0, cell_size=0.1, confirm_after_views=1)
+SMALL = PlannerConfig(extent=6.0, cell_size=0.1, inflation_margin=0.0, confirm_after_views=1)
 
 
 def _converged(cfg: PlannerConfig = SMALL, goal=(2.0, 0.0)) -> HarmonicPlanner:
@@ -50,6 +50,30 @@ def test_relax_keeps_values_between_ticks_and_converges():
     assert p.relax_until(0.0, 7).sweeps == 7
 
 
+def test_a_tick_keeps_relaxing_until_the_tolerance_or_the_sweep_bound():
+    def planner(**changes):
+        cfg = PlannerConfig(**{**SMALL.__dict__, "sweeps_per_tick": 10, **changes})
+        return HarmonicPlanner.centred_on(cfg, (0.0, 0.0), (2.0, 0.5))
+
+    fixed = planner(max_sweeps_per_tick=10)
+    ref = planner()
+    assert fixed.relax() == ref.relax(10)  # at most sweeps_per_tick: exactly that many
+    np.testing.assert_array_equal(fixed.potential, ref.potential)
+    # adaptive: chunks of 10 sweeps until a sweep changes no cell by more than 1e-9
+    adaptive, ref = planner(relax_tolerance=1e-9, max_sweeps_per_tick=10_000), planner()
+    change = adaptive.relax()
+    chunks = 1
+    while ref.relax(10) > 1e-9:
+        chunks += 1
+    assert change <= 1e-9 and chunks > 2
+    np.testing.assert_array_equal(adaptive.potential, ref.potential)
+    # bounded: 30 sweeps at most
+    bounded, ref = planner(relax_tolerance=0.0, max_sweeps_per_tick=30), planner()
+    bounded.relax()
+    ref.relax(30)
+    np.testing.assert_array_equal(bounded.potential, ref.potential)
+
+
 @pytest.mark.parametrize("kind", list(Relaxation), ids=lambda k: k.value)
 def test_both_relaxations_give_the_same_planner_field(kind):
     cfg = PlannerConfig(extent=6.0, cell_size=0.1, relaxation=kind, confirm_after_views=1)
@@ -68,13 +92,15 @@ def test_command_turns_the_robot_towards_minus_gradient():
     assert heading == pytest.approx(math.atan2(0.05, 2.05), abs=0.01)
     facing = p.command(Pose2D(0.0, 0.0, 0.0), 0.0)
     assert facing.status is Status.DRIVING
-    assert facing.linear == pytest.approx(SMALL.max_linear_speed * math.cos(heading))
+    floor = math.cos(math.radians(SMALL.turn_in_place_deg))
+    share = (math.cos(heading) - floor) / (1.0 - floor)
+    assert facing.linear == pytest.approx(SMALL.max_linear_speed * share)
     assert facing.angular == pytest.approx(SMALL.heading_gain * heading)
     left = p.command(Pose2D(0.0, 0.0, math.pi / 2), 0.1)  # goal on the right: turn right
     assert left.angular == pytest.approx(-SMALL.max_angular_speed)
-    assert left.linear == pytest.approx(0.0, abs=0.02)
+    assert left.linear == 0.0  # beyond turn_in_place_deg: turns in place
     right = p.command(Pose2D(0.0, 0.0, -0.3), 0.2)  # goal a little to the left
-    assert right.angular > 0.0 and right.linear > 0.9 * SMALL.max_linear_speed
+    assert right.angular > 0.0 and right.linear > 0.8 * SMALL.max_linear_speed
 
 
 def test_unicycle_command_saturates_and_stops_on_flat_gradient():
@@ -86,11 +112,91 @@ def test_unicycle_command_saturates_and_stops_on_flat_gradient():
     assert unicycle_command(Pose2D(), (0.0, 0.0), **kw) == (0.0, 0.0)
 
 
+def test_unicycle_command_turns_in_place_beyond_the_configured_error():
+    kw = {"max_linear": 0.5, "max_angular": 1.0, "heading_gain": 2.0}
+    turn = math.radians(60.0)
+    at = [
+        unicycle_command(Pose2D(), (math.cos(e), math.sin(e)), turn_in_place=turn, **kw)[0]
+        for e in (0.0, math.radians(30.0), math.radians(59.0), math.radians(61.0), 2.5)
+    ]
+    # (cos e - cos 60°) / (1 - cos 60°): 1 facing, 0.732 at 30°, about 0.03 at 59°, 0 beyond
+    assert at[0] == pytest.approx(0.5)
+    assert at[1] == pytest.approx(0.5 * (math.cos(math.radians(30.0)) - 0.5) / 0.5)
+    assert 0.0 < at[2] < 0.02
+    assert at[3] == 0.0 and at[4] == 0.0
+    # the turn itself does not depend on it
+    assert unicycle_command(Pose2D(), (0.0, 1.0), turn_in_place=turn, **kw)[1] == 1.0
+
+
+def test_speed_factor_scales_linearly_within_the_slowdown_distance():
+    assert speed_factor(0.25, 0.5) == pytest.approx(0.5)
+    assert speed_factor(2.0, 0.5) == 1.0
+    assert speed_factor(0.01, 0.5, floor=0.2) == 0.2
+    assert speed_factor(-0.1, 0.5) == 0.0  # inside the robot's radius: no forward speed
+    assert speed_factor(0.0, 0.0) == 1.0  # slowdown 0: never slows down
+    assert speed_factor(math.inf, 0.5) == 1.0
+
+
 def test_goal_reached_within_tolerance():
     p = _converged()
-    cmd = p.command(Pose2D(2.0 - 0.15, 0.1, 1.0), 0.0)  # 0.18 m from the goal
+    assert SMALL.goal_tolerance == 0.05
+    cmd = p.command(Pose2D(2.0 - 0.03, 0.03, 1.0), 0.0)  # 0.042 m from the goal
     assert cmd == type(cmd)(0.0, 0.0, Status.GOAL_REACHED)
-    assert p.command(Pose2D(2.0 - 0.25, 0.0, 0.0), 0.0).status is Status.DRIVING
+    assert p.command(Pose2D(2.0 - 0.07, 0.0, 0.0), 0.0).status is Status.DRIVING
+
+
+def test_final_approach_steers_at_the_goal_point_and_slows_down():
+    p = _converged()
+    # the potential's sink is the goal cell's centre (2.05, 0.05), not the goal (2.0, 0.0):
+    # within goal_approach_distance the robot heads for the goal point itself
+    near = p.command(Pose2D(1.75, 0.0, 0.0), 0.0)
+    assert near.angular == pytest.approx(0.0, abs=1e-12)
+    # and its speed falls with the distance: 0.25 m / goal_slowdown 0.5 m = half speed
+    assert near.linear == pytest.approx(SMALL.max_linear_speed * 0.25 / SMALL.goal_slowdown)
+    # further out it follows −∇U (towards the cell centre: a small left turn)
+    far = p.command(Pose2D(1.0, 0.0, 0.0), 0.0)
+    assert far.angular > 0.01
+    assert far.linear < SMALL.max_linear_speed * 1.0 / SMALL.goal_slowdown
+
+
+def _with_obstacle_at(x: float, y: float) -> HarmonicPlanner:
+    p = _converged()
+    cluster = np.array([[x, y, 0.5]]) + np.random.default_rng(0).uniform(-0.04, 0.04, (40, 3))
+    p.update_obstacles(cluster, Pose2D(x - 1.0, y, 0.0), math.radians(30.0))
+    assert p.detected_mask.sum() == 1
+    return p
+
+
+def test_clearance_is_the_distance_to_the_nearest_remembered_cell():
+    p = _with_obstacle_at(-0.95, 1.05)  # the centre of a cell
+    assert p.clearance(-0.95, 0.45, 1.0) == pytest.approx(0.6)
+    assert p.clearance(-0.95, 0.45, 0.5) == math.inf  # beyond the reach
+    assert _converged().clearance(0.0, 0.0, 5.0) == math.inf
+
+
+def test_forward_speed_falls_near_remembered_obstacles():
+    p = _with_obstacle_at(-0.95, 1.05)
+    cfg = p.config
+    # 0.6 m from the obstacle cell: clearance 0.6 - robot_radius 0.3 = 0.3 of slowdown 0.5
+    near = p.command(Pose2D(-0.95, 0.45, 0.0), 0.0)
+    share = (0.6 - cfg.robot_radius) / cfg.obstacle_slowdown
+    floor = math.cos(math.radians(cfg.turn_in_place_deg))
+    gx, gy = p.gradient(-0.95, 0.45)
+    error = math.atan2(-gy, -gx)
+    expected = cfg.max_linear_speed * (math.cos(error) - floor) / (1 - floor) * share
+    assert near.linear == pytest.approx(expected)
+    # 1.05 m away (clearance 0.75 m, beyond the slowdown distance): no slow-down
+    free = p.command(Pose2D(-0.95, 0.0, 0.0), 0.0)
+    gx, gy = p.gradient(-0.95, 0.0)
+    error = math.atan2(-gy, -gx)
+    full = cfg.max_linear_speed * (math.cos(error) - floor) / (1 - floor)
+    assert free.linear == pytest.approx(full) and free.linear > 0.0
+    # touching it: never below min_speed_fraction of the full speed (the robot must leave)
+    touching = p.command(Pose2D(-0.95, 0.9, 0.0), 0.0)
+    gx, gy = p.gradient(-0.95, 0.9)
+    error = math.atan2(-gy, -gx)
+    full = cfg.max_linear_speed * max(0.0, (math.cos(error) - floor) / (1 - floor))
+    assert touching.linear == pytest.approx(full * cfg.min_speed_fraction)
 
 
 def test_stuck_after_the_configured_time_without_progress():
@@ -128,7 +234,9 @@ def test_path_is_bounded_and_says_which_bound_stopped_it():
 
 
 def test_path_into_obstacle_or_off_grid_is_reported():
-    cfg = PlannerConfig(extent=6.0, cell_size=0.1, robot_radius=0.0, confirm_after_views=1)
+    cfg = PlannerConfig(
+        extent=6.0, cell_size=0.1, robot_radius=0.0, inflation_margin=0.0, confirm_after_views=1
+    )
     p = _converged(cfg)
     p._u[:] = p.geometry.centres()[0] / 10.0  # private on purpose: U rises along +x
     p._grad_cache = None
