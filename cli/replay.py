@@ -76,8 +76,8 @@ def _goal(ctx: click.Context, param: click.Parameter, value: str | None):
     default=None,
     metavar="X",
     help="Virtual compute budget in fitness evaluations per second: each generation costs "
-    "its evaluations / X of log time (1.5 M/s: this engine on the 2-core reference "
-    "machine, as SGBM's cost per frame). [default: 1500000]",
+    "its evaluations / X of log time (3.7 M/s: this engine on the 2-core reference "
+    "machine, as SGBM's cost per frame). [default: 3700000]",
 )
 @click.option(
     "--sync",

@@ -87,12 +87,12 @@ class SgbmConfig:
         min=0.1,
     )
     seconds_per_frame: float = param(
-        0.050,
+        0.027,
         help="virtual time one frame costs replay's clock (a configured number so runs stay "
         "deterministic): a whole SgbmEngine.step on 640×480 with these defaults, measured on "
-        "the 2-core development machine by tests/benchmarks/bench_baseline.py (median 50–52 ms in "
-        "three runs, 60 ms in a busier one; StereoSGBM.compute alone 41–43 ms); scale it "
-        "with W·H·num_disparities for other sizes",
+        "the 2-core reference machine by tests/benchmarks/bench_baseline.py (median 27.3 ms "
+        "over 15 frames, 26.6–31.2; StereoSGBM.compute alone 19.4 ms); scale it with "
+        "W·H·num_disparities for other sizes",
         unit="s",
         min=1e-6,
     )

@@ -47,12 +47,12 @@ class ReplayConfig:
         "by stereo = sgbm)",
     )
     evals_per_second: float = param(
-        1.5e6,
+        3.7e6,
         help="virtual compute budget: each generation costs its fitness evaluations / this. "
-        "1.5 M/s is what the engine achieves on the 2-core reference machine, all operators "
-        "included (measured 1.56-1.70 M/s), the same machine that sgbm.seconds_per_frame "
-        "describes, so flies and SGBM are compared at equal compute (about 40 generations of "
-        "5000 flies per 15 Hz frame)",
+        "3.7 M/s is what the engine achieves on the 2-core reference machine, all operators "
+        "included (measured 3.71-3.88 M/s in replay's rhythm), the same machine that "
+        "sgbm.seconds_per_frame describes, so flies and SGBM are compared at equal compute "
+        "(about 80 generations of 5000 flies per 15 Hz frame)",
         unit="evaluations/s",
         min=1.0,
     )
