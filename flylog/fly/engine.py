@@ -170,7 +170,7 @@ class FlyEngine:
             raise FlylogError(msg)
         cfg = self.config
         pop = self._pop
-        # after a step every fly is evaluated; new images or motion make them all stale
+        # after a step every fly is evaluated; new images make them all stale
         if pop.stale.all():
             stale = self._all
         else:
