@@ -184,7 +184,12 @@ def arc_draws(
     bearing = arcs[k, 2] + (-half + (half - -half) * w[:, 1])
     distance = arcs[k, 3] + (-tolerance + (tolerance - -tolerance) * w[:, 2])
     height = 0.0 + (rig.mount_height - 0.0) * w[:, 3]
-    return ArcDraws(k, np.cos(bearing), np.sin(bearing), distance, height)
+    # the C library's cos and sin, as the compiled kernel calls them: numpy's own vectorised
+    # versions may differ in the last bit on some CPUs (AVX-512)
+    angles = bearing.tolist()
+    cos = np.array([math.cos(a) for a in angles], dtype=np.float64)
+    sin = np.array([math.sin(a) for a in angles], dtype=np.float64)
+    return ArcDraws(k, cos, sin, distance, height)
 
 
 def arc_immigrants_numpy(
