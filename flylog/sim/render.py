@@ -117,7 +117,10 @@ class Renderer:
             ox, oy, d = _camera_rays(rig, pose, side)
             origins[i] = ox, oy
             dirs[i] = d
-        sky_cols, sky_rows = sky_pattern(rig, dirs, a.sky[3])
+        if want_color:
+            sky_cols, sky_rows = sky_pattern(rig, dirs, a.sky[3])
+        else:  # depth and ids do not depend on the sky's colour (metrics render 300 views)
+            sky_cols, sky_rows = np.zeros(dirs.shape[:2]), np.zeros(rig.height)
         n_img = len(sides) if want_color else 0
         rgb = np.empty((n_img, rig.height, rig.width, 3), dtype=np.uint8)
         depth = np.empty((rig.height, rig.width), dtype=np.float32)
