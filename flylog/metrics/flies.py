@@ -29,6 +29,9 @@ Definitions (``MetricsConfig`` holds every threshold):
   pixel sees a surface (not the sky); summaries take its median.
 - Nearest obstacle: the 2-D distance from the robot (base_link origin) to the nearest
   obstacle fly (detected) and to the nearest obstacle pixel of the true view (visible).
+
+``flylog.metrics.snapshots`` computes the same scores for many snapshots at once; this
+module, one snapshot at a time, is its reference.
 """
 
 from __future__ import annotations
@@ -132,7 +135,8 @@ def _inverse_bilinear(
     return (1 - fy) * top + fy * bottom
 
 
-def _relative_error(d: np.ndarray, true_d: np.ndarray) -> np.ndarray:
+def relative_depth_error(d: np.ndarray, true_d: np.ndarray) -> np.ndarray:
+    """|d − D| / D, inf where D is not finite (the sky)."""
     with np.errstate(invalid="ignore"):
         return np.where(np.isfinite(true_d), np.abs(d - true_d) / true_d, np.inf)
 
@@ -201,10 +205,12 @@ def view_at(
     has_own = (rank[own, p] < 9)[fly_pixel]
     true_d[near[has_own]] = candidate[own, p][fly_pixel][has_own]
     # A fly matching another side within tau is judged against the side it matches best.
-    err = np.where(usable[:, fly_pixel], _relative_error(d[near], candidate[:, fly_pixel]), np.inf)
+    err = np.where(
+        usable[:, fly_pixel], relative_depth_error(d[near], candidate[:, fly_pixel]), np.inf
+    )
     best = np.argmin(err, axis=0)
     n = np.arange(len(near))
-    matched = (err[best, n] <= tau) & (err[best, n] < _relative_error(d[near], true_d[near]))
+    matched = (err[best, n] <= tau) & (err[best, n] < relative_depth_error(d[near], true_d[near]))
     window_ids = ids[i, j][:, fly_pixel]
     true_d[near[matched]] = candidate[:, fly_pixel][best, n][matched]
     hit[near[matched]] = window_ids[best, n][matched]

@@ -13,14 +13,15 @@ within ``goal_tolerance`` of the goal at some time.
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import time
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -30,10 +31,12 @@ from flylog.fly.obstacles import ObstacleFlies
 from flylog.geometry import Pose2D
 from flylog.io import contract, open_log
 from flylog.io.reader import LogReader
+from flylog.io.records import LogMessage
 from flylog.metrics import tables
 from flylog.metrics.config import MetricsConfig
-from flylog.metrics.flies import f_score, ratio, score_flies
+from flylog.metrics.flies import f_score, ratio
 from flylog.metrics.obstacles import detect_obstacles
+from flylog.metrics.snapshots import score_snapshots
 from flylog.metrics.trajectory import (
     PoseInterpolator,
     associate,
@@ -44,12 +47,20 @@ from flylog.metrics.trajectory import (
     rpe_rmse,
 )
 from flylog.metrics.truth import LogTruth, read_truth
-from flylog.metrics.view import TrueViews
+from flylog.metrics.view import TrueView, TrueViews
 from flylog.scene.load import distance_to_obstacles
 
 # Odometry and truth are written at the same instants by the simulator; allow one 50 Hz
 # period of mismatch for logs from elsewhere (evo's --t_max_diff default is 10 ms).
 _MAX_MATCH_NS = 20_000_000
+# Run messages decoded ahead of the scoring by a background thread (a /flies snapshot of
+# 5000 flies is ~100 kB): the run's chunks decompress and pass their CRC checks, which
+# release the GIL, while the truth is read, the renderer's kernels load and views render.
+_READ_AHEAD = 64
+# Snapshots scored together (flylog.metrics.snapshots), at most ~4 M view pixels at once
+# (64 views of 160x120 blocks; 13 per-pixel 640x480 views).
+_BATCH = 64
+_BATCH_PIXELS = 1 << 22
 
 
 @dataclass(frozen=True)
@@ -61,6 +72,16 @@ class RunFacts:
     evaluations: int | None = None
     wall_seconds: float | None = None
     log_duration: float | None = None
+
+
+class _Snapshot(NamedTuple):
+    """A /flies snapshot waiting to be scored: its obstacle flies and true view."""
+
+    t_ns: int
+    pose: np.ndarray  # true (x, y, theta) at t_ns
+    xyz: np.ndarray  # (M, 3) obstacle flies
+    flies: int  # flies in the snapshot
+    view: TrueView
 
 
 @dataclass(frozen=True)
@@ -165,8 +186,31 @@ def score_run(
     """Score ``run`` against the ground truth of the sensor log ``log`` (may be the same
     file). ``on_progress(done, total)`` reports progress in seconds of log time."""
     wall0 = time.perf_counter()
-    truth = read_truth(log)
     reader = open_log(run)
+    present = reader.topics()
+    topics = [t for t in (contract.FLIES, contract.PLANNER_COMMAND) if t in present]
+    # Reading starts now, in its thread (the first message read here starts it).
+    messages = reader.messages(topics, read_ahead=_READ_AHEAD) if topics else None
+    first = next(messages, None) if messages is not None else None
+    try:
+        ahead = [] if first is None else [first]
+        stream = itertools.chain(ahead, () if messages is None else messages)
+        return _scored(run, log, config, reader, stream, on_progress, wall0)
+    finally:
+        if messages is not None:
+            messages.close()  # stops the reading thread if scoring failed
+
+
+def _scored(
+    run: str | Path,
+    log: str | Path,
+    config: MetricsConfig,
+    reader: LogReader,
+    messages: Iterator[LogMessage],
+    on_progress: Callable[[float, float], None] | None,
+    wall0: float,
+) -> MetricsResult:
+    truth = read_truth(log)
     facts = run_facts(reader, config)
     present = reader.topics()
     true = truth.true
@@ -181,15 +225,39 @@ def score_run(
         warnings.warn(
             f"{reader.path} has no {contract.FLIES} topic: only the robot is scored",
             UserWarning,
-            stacklevel=2,
+            stacklevel=3,
         )
-    topics = [t for t in (contract.FLIES, contract.PLANNER_COMMAND) if t in present]
     rows: list[dict[str, Any]] = []
     visible_px: list[np.ndarray] = []
     flies_on: list[np.ndarray] = []
     errors: list[np.ndarray] = []
     statuses: set[str] = set()
-    for m in reader.messages(topics) if topics else ():
+    view_pixels = (truth.rig.width // views.block) * (truth.rig.height // views.block)
+    batch = max(1, min(_BATCH, _BATCH_PIXELS // view_pixels))
+    pending: list[_Snapshot] = []
+
+    def score_pending() -> None:
+        scores = score_snapshots(
+            [p.xyz for p in pending],
+            np.stack([p.view.depth for p in pending]),
+            np.stack([p.view.ids for p in pending]),
+            truth.rig,
+            n_obstacles,
+            config,
+            flies=[p.flies for p in pending],
+            block=views.block,
+        )
+        for p, score in zip(pending, scores, strict=True):
+            t = p.t_ns
+            rows.append(_snapshot_row(t, t0, p.pose, score))
+            visible_px.append(score.visible_pixels)
+            flies_on.append(score.flies_on)
+            errors.append(score.depth_errors)
+            if on_progress is not None:
+                on_progress((t - t0) / 1e9, (t_end - t0) / 1e9)
+        pending.clear()
+
+    for m in messages:
         if m.topic == contract.PLANNER_COMMAND:
             statuses.add(m.value["status"])
             continue
@@ -203,24 +271,14 @@ def score_run(
             raise LogError(msg)
         cloud = m.value
         pose = true_pose(np.array([t]))[0]
-        view = views.view(Pose2D(*pose))
         keep = facts.rule.mask(cloud.xyz, cloud.fitness, cloud.age)
-        score = score_flies(
-            cloud.xyz[keep],
-            view.depth,
-            view.ids,
-            truth.rig,
-            n_obstacles,
-            config,
-            flies=len(cloud.xyz),
-            block=view.block,
+        pending.append(
+            _Snapshot(t, pose, cloud.xyz[keep], len(cloud.xyz), views.view(Pose2D(*pose)))
         )
-        rows.append(_snapshot_row(t, t0, pose, score))
-        visible_px.append(score.visible_pixels)
-        flies_on.append(score.flies_on)
-        errors.append(score.depth_errors)
-        if on_progress is not None:
-            on_progress((t - t0) / 1e9, (t_end - t0) / 1e9)
+        if len(pending) == batch:
+            score_pending()
+    if pending:
+        score_pending()
 
     xy = np.array([[r["true_x"], r["true_y"]] for r in rows]).reshape(-1, 2)
     for row, nearest in zip(rows, distance_to_obstacles(truth.scene, xy), strict=True):

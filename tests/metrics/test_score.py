@@ -1,4 +1,5 @@
 import json
+import threading
 
 import numpy as np
 import pyarrow.parquet as pq
@@ -135,6 +136,21 @@ def test_snapshots_outside_the_log_are_refused(sensor_log, truth, tmp_path):
     run = write_run(tmp_path / "run.mcap", [(5_000 * MS, np.empty((0, 3)))])
     with pytest.raises(LogError, match="outside the true trajectory"):
         score_run(run, sensor_log)
+
+
+def test_a_refused_truth_log_stops_the_reading_of_the_run(sensor_log, truth, tmp_path):
+    """The run is read ahead in a thread from the start: an error met before its snapshots
+    are scored (here in the truth log) must not leave that thread behind."""
+    flies = surface_flies(truth, TIMES[0])[:50]
+    run = write_run(tmp_path / "run.mcap", [(t, flies) for t in TIMES * 40])  # > read-ahead
+    bare = tmp_path / "bare.mcap"
+    with LogWriter(bare) as log:
+        log.write(contract.TRUTH_POSE, 0, encode.pose_in_frame(Pose2D(), 0, "odom"))
+    with pytest.raises(LogError, match="lacks topic") as refused:
+        score_run(run, bare)
+    # The traceback kept here holds score_run's frames, and so its reader: stopped anyway.
+    assert refused.traceback is not None
+    assert not [t for t in threading.enumerate() if t.name == "flylog-read-ahead"]
 
 
 def test_a_log_without_its_scene_is_refused(tmp_path):
