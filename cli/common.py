@@ -15,10 +15,13 @@ from rich.progress import (
     BarColumn,
     MofNCompleteColumn,
     Progress,
+    ProgressColumn,
+    Task,
     TextColumn,
     TimeElapsedColumn,
     TimeRemainingColumn,
 )
+from rich.text import Text
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -56,15 +59,26 @@ def reports_errors(fn: F) -> F:
     return wrapper  # type: ignore[return-value]
 
 
+class AmountColumn(ProgressColumn):
+    """``done/total unit`` with one decimal; ``?`` for a total not known yet (a task's
+    total is None until the first update)."""
+
+    def __init__(self, unit: str) -> None:
+        super().__init__()
+        self.unit = unit
+
+    def render(self, task: Task) -> Text:
+        total = "?" if task.total is None else f"{task.total:.1f}"
+        return Text(f"{task.completed:.1f}/{total} {self.unit}")
+
+
 @contextmanager
-def progress_bar(description: str, unit: str) -> Iterator[Callable[[float, float], None]]:
-    """A rich progress bar with ETA on stderr; yields ``update(done, total)`` in ``unit``
-    (e.g. "frames", "s" of log time). Hidden when stderr is not a terminal."""
-    count = (
-        MofNCompleteColumn()
-        if unit == "frames"
-        else TextColumn("{task.completed:.1f}/{task.total:.1f} " + unit)
-    )
+def progress_bar(
+    description: str, unit: str, console: Console = stderr
+) -> Iterator[Callable[[float, float], None]]:
+    """A rich progress bar with ETA on ``console``; yields ``update(done, total)`` in ``unit``
+    (e.g. "frames", "s" of log time). Hidden when the console is not a terminal."""
+    count = MofNCompleteColumn() if unit == "frames" else AmountColumn(unit)
     columns = (
         TextColumn("[bold]{task.description}"),
         BarColumn(),
@@ -73,7 +87,7 @@ def progress_bar(description: str, unit: str) -> Iterator[Callable[[float, float
         TextColumn("ETA"),
         TimeRemainingColumn(),
     )
-    with Progress(*columns, console=stderr, disable=not stderr.is_terminal) as bar:
+    with Progress(*columns, console=console, disable=not console.is_terminal) as bar:
         task = bar.add_task(description, total=None)
 
         def update(done: float, total: float) -> None:

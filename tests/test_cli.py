@@ -25,3 +25,22 @@ def test_help_does_not_import_numba_or_mcap():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == ""
+
+
+@pytest.mark.parametrize("unit", ["s", "frames"])
+def test_progress_bar_draws_on_a_terminal_before_and_after_the_first_update(unit):
+    """On a terminal the bar is drawn as it starts, before any total is known (it once
+    formatted that None total and crashed every command run from a terminal)."""
+    import io
+
+    from rich.console import Console
+
+    from flylog.cli.common import progress_bar
+
+    out = io.StringIO()
+    console = Console(file=out, force_terminal=True, width=100)
+    with progress_bar("replay", unit, console=console) as update:
+        update(1.5, 60.0)
+    text = out.getvalue()
+    assert "replay" in text
+    assert ("1.5/60.0 s" if unit == "s" else "1/60") in text
