@@ -39,9 +39,10 @@ class Pipeline(Protocol):
     def deliver(self, record: object) -> None:
         """A sensor record became available (stereo pair, sonar reading, odometry)."""
 
-    def generation(self) -> tuple[int, int]:
+    def generation(self, keep_published: bool) -> tuple[int, int]:
         """Run one generation on the newest data; return the fitness evaluations it made
-        and the virtual time it costs (ns, at least 1)."""
+        and the virtual time it costs (ns, at least 1). ``keep_published`` False: no tick
+        fires before the next publish, so what was published need not outlive this step."""
 
     def publish(self, t_ns: int) -> None:
         """The population computed so far becomes what ticks see (at virtual time t_ns)."""
@@ -56,6 +57,10 @@ class ClockConfig:
     generations_per_frame: int
     frame_period_ns: int
     tick_periods_ns: dict[str, int]
+    # The most virtual time one generation can cost (None: unknown). Given, the pipeline is
+    # told when no tick can fire before the next publish (most generations), which spares it
+    # a copy of the published population at every generation.
+    max_generation_cost_ns: int | None = None
 
 
 @dataclass
@@ -123,9 +128,17 @@ class VirtualClock:
                 self._fire_ticks_until(nxt - 1)
                 stats.now_ns = nxt
                 continue
-            for _ in range(runs):
-                evals, cost = self.pipeline.generation()
+            for i in range(runs):
+                # SYNC publishes once the frame's generations are done, the others after each
+                keep = self._tick_before(runs - i if cfg.mode is Mode.SYNC else 1)
+                evals, cost = self.pipeline.generation(keep)
                 cost = max(1, cost)
+                if not keep and cost > (cfg.max_generation_cost_ns or 0):
+                    msg = (
+                        f"a generation cost {cost} ns of virtual time, more than the "
+                        f"{cfg.max_generation_cost_ns} ns the clock was told it can cost"
+                    )
+                    raise RuntimeError(msg)
                 # Ticks due while this generation runs see what was published before it.
                 self._fire_ticks_until(stats.now_ns + cost - 1)
                 stats.now_ns += cost
@@ -141,6 +154,13 @@ class VirtualClock:
         self.advance_to(end_ns)
         self._fire_ticks_until(end_ns)
         return self.stats
+
+    def _tick_before(self, generations: int) -> bool:
+        """Whether a tick may fire within the next ``generations`` generations."""
+        most = self.config.max_generation_cost_ns
+        if most is None:
+            return True
+        return bool(self._ticks) and self._ticks[0][0] < self.stats.now_ns + generations * most
 
     def _deliver(self, t: int, *, stop_after_pair: bool) -> int:
         pairs = 0

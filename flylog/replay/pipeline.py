@@ -127,6 +127,11 @@ class FlyPipeline:
         self._last_stats: GenerationStats | None = None
         # what ticks see: the newest population published, and where the robot was then
         self._published: Population | None = None
+        # Publishing does not copy the population: ticks copy it when they read it, and so do
+        # a delivered record and a generation that a tick may follow before the next publish
+        # (the clock says): a copy per generation cost 4 % of the replay's main thread.
+        self._published_live = False  # what was published is the engine's population, now
+        self._published_gone = False  # ... and a generation has moved it on: none may read
         self._published_pose = start
         self._published_image_ns = -1
         self._published_generation = 0
@@ -139,6 +144,10 @@ class FlyPipeline:
     # --- the clock's Pipeline protocol -----------------------------------------------------
 
     def deliver(self, record: object) -> None:
+        # records change the engine's population (odometry moves the flies), which ticks
+        # until the next publish must not see: copy what was published first
+        if self._published_live:
+            self._published_population()
         if isinstance(record, StereoPair):
             self.engine.set_images(record)
         elif isinstance(record, SonarReading):
@@ -152,7 +161,11 @@ class FlyPipeline:
             msg = f"the pipeline cannot use a {type(record).__name__}"
             raise TypeError(msg)
 
-    def generation(self) -> tuple[int, int]:
+    def generation(self, keep_published: bool = True) -> tuple[int, int]:
+        if keep_published:
+            self._published_population()
+        elif self._published_live:
+            self._published_live, self._published_gone = False, True
         self._last_stats = self.engine.step()
         evals = self._last_stats.evaluations
         self._evaluations += evals
@@ -160,10 +173,20 @@ class FlyPipeline:
 
     def publish(self, t_ns: int) -> None:
         assert self._last_stats is not None
-        self._published = self.engine.population
+        self._published_live, self._published_gone = True, False
         self._published_pose = self._odom.pose
         self._published_image_ns = self._last_stats.image_stamp_ns
         self._published_generation = self._last_stats.generation
+
+    def _published_population(self) -> Population | None:
+        """The newest population published (an immutable copy), as ticks see it."""
+        if self._published_gone:
+            msg = "a tick read a published population that a generation has moved on"
+            raise RuntimeError(msg)
+        if self._published_live:
+            self._published = self.engine.population
+            self._published_live = False
+        return self._published
 
     def tick(self, name: str, t_ns: int) -> None:
         if name == PLANNER_TICK:
@@ -179,7 +202,7 @@ class FlyPipeline:
     def _planner_tick(self, t_ns: int) -> None:
         tick = _TickInputs(
             t_ns,
-            self._published,
+            self._published_population(),
             self._published_pose,
             self._published_image_ns,
             self._published_generation,
@@ -271,7 +294,7 @@ class FlyPipeline:
 
     def _snapshot(self, t_ns: int) -> None:
         self.snapshots += 1
-        pop = self._published
+        pop = self._published_population()
         if pop is not None:
             uv, colours = self._overlay(pop)
             messages = [
@@ -305,17 +328,36 @@ class FlyPipeline:
     def _overlay(self, pop: Population) -> tuple[np.ndarray, np.ndarray]:
         """The best ``overlay_flies`` valid flies projected on the left image, coloured from
         red (lowest shown fitness) to green (best)."""
-        valid = np.flatnonzero(pop.fitness > 0)
-        k = min(self.config.overlay_flies, len(valid))
+        best = best_valid_flies(pop.fitness, self.config.overlay_flies)
+        k = len(best)
         if k == 0:
             return np.empty((0, 2)), np.empty((0, 4))
-        best = valid[np.argsort(pop.fitness[valid], kind="stable")[-k:]]
         u_left, _, v, _ = self.rig.project(pop.xyz[best])
         f = pop.fitness[best]
         span = f.max() - f.min()
         a = (f - f.min()) / span if span > 0 else np.ones(k)
         colours = np.stack([1.0 - a, a, np.zeros(k), np.ones(k)], axis=1)
         return np.stack([u_left, v], axis=1), colours
+
+
+def best_valid_flies(fitness: np.ndarray, k: int) -> np.ndarray:
+    """Indices of the ``k`` fittest flies of positive fitness, by increasing fitness: the last
+    ``k`` of ``np.argsort(fitness[valid], kind="stable")`` (equal fitnesses by index, the
+    highest indices kept at the cut), found by a partition and a sort of those ``k`` only,
+    5× faster than sorting all the valid flies at each snapshot."""
+    valid = np.flatnonzero(fitness > 0)
+    f = fitness[valid]
+    k = min(k, len(f))
+    if k == 0:
+        return valid[:0]
+    if k < len(f):
+        cut = np.partition(f, len(f) - k)[len(f) - k]  # the k-th largest fitness
+        above = np.flatnonzero(f > cut)
+        at_cut = np.flatnonzero(f == cut)
+        chosen = np.sort(np.concatenate([above, at_cut[len(at_cut) - (k - len(above)) :]]))
+    else:
+        chosen = np.arange(len(f))
+    return valid[chosen[np.argsort(f[chosen], kind="stable")]]
 
 
 def path_poses(points: np.ndarray) -> np.ndarray:

@@ -1,5 +1,7 @@
 """Replay (issue 4): speed against the log's duration, peak memory, and the latency from an
-obstacle entering the cameras' view to the planner's first reaction, async versus --sync.
+obstacle entering the cameras' view to the planner's first reaction, async versus --sync;
+and the replay's overheads outside the engine, old way against new in the same process:
+the overlay encoding, the run log's compression, glibc's allocator while reading the log.
 
 Reference log: corridor, 640×480 @ 15 Hz, 60 s, six sonars, odometry at 50 Hz; replayed
 with 5000 flies, 10 generations per frame, planner 200×200 at 10 Hz, all outputs written.
@@ -9,14 +11,20 @@ from __future__ import annotations
 
 import json
 import math
+import resource
 import subprocess
 import sys
+import time
 from pathlib import Path
 
+import foxglove.messages as fm
 import numpy as np
+from mcap.reader import make_reader
+from mcap.writer import CompressionType, Writer
 
 from flylog.config import replace_dotted
 from flylog.experiments.reaction import first_visible_frames, reaction_delays
+from flylog.io import encode
 from flylog.replay.config import ReplayConfig
 from flylog.replay.run import replay
 from flylog.scene.load import load_scene
@@ -29,6 +37,8 @@ VISIBLE_PIXELS = 400  # an obstacle has entered the view when this many left pix
 _MEMORY_CHILD = """
 import resource, sys
 from pathlib import Path
+from flylog.cli.main import keep_large_blocks
+keep_large_blocks()  # as the CLI does
 from flylog.replay.config import ReplayConfig
 from flylog.replay.run import replay
 replay(Path(sys.argv[1]), Path(sys.argv[2]), ReplayConfig(generations_per_frame=10))
@@ -116,5 +126,208 @@ def _latency(out_dir: Path) -> list[dict]:
     return figures
 
 
+REPEATS = 5
+
+# Reads every sensor topic of a log as replay does (a reading thread); prints CPU s, faults.
+_READ_CHILD = """
+import resource, sys
+if sys.argv[2] == "tuned":
+    from flylog.cli.main import keep_large_blocks
+    assert keep_large_blocks()
+from flylog.io import open_log
+from flylog.replay.inputs import SENSOR_TOPICS
+from flylog.replay.run import READ_AHEAD_MESSAGES
+before = resource.getrusage(resource.RUSAGE_SELF)
+for _ in open_log(sys.argv[1]).messages(SENSOR_TOPICS, read_ahead=READ_AHEAD_MESSAGES):
+    pass
+after = resource.getrusage(resource.RUSAGE_SELF)
+cpu = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
+print(cpu, after.ru_minflt - before.ru_minflt)
+"""
+
+
+def _sdk_image_annotations(uv: np.ndarray, colours: np.ndarray, stamp_ns: int) -> bytes:
+    """The overlay as it was encoded before: one SDK object per fly."""
+    ts = encode.timestamp(stamp_ns)
+    points = fm.PointsAnnotation(
+        timestamp=ts,
+        type=fm.PointsAnnotationType.Points,
+        points=[fm.Point2(x=u, y=v) for u, v in uv.tolist()],
+        outline_colors=[fm.Color(r=r, g=g, b=b, a=a) for r, g, b, a in colours.tolist()],
+        thickness=3.0,
+    )
+    return fm.ImageAnnotations(timestamp=ts, points=[points]).encode()
+
+
+def _best_of(fns: dict[str, object], number: int) -> dict[str, float]:
+    """Best-of-REPEATS seconds per call of each function, the functions interleaved."""
+    best = dict.fromkeys(fns, math.inf)
+    for _ in range(REPEATS):
+        for name, fn in fns.items():
+            t0 = time.perf_counter()
+            for _ in range(number):
+                fn()  # type: ignore[operator]
+            best[name] = min(best[name], (time.perf_counter() - t0) / number)
+    return best
+
+
+def _overlay_encoding() -> dict:
+    rng = np.random.default_rng(0)
+    n = REFERENCE.overlay_flies
+    uv = rng.uniform(0.0, 640.0, (n, 2))
+    a = np.sort(rng.uniform(0.0, 1.0, n))
+    colours = np.stack([1.0 - a, a, np.zeros(n), np.ones(n)], axis=1)
+    t = 12_345_678_901
+    assert encode.image_annotations(uv, colours, t).encode() == _sdk_image_annotations(
+        uv, colours, t
+    )
+    best = _best_of(
+        {
+            "sdk": lambda: _sdk_image_annotations(uv, colours, t),
+            "numpy": lambda: encode.image_annotations(uv, colours, t).encode(),
+        },
+        number=20,
+    )
+    snapshots_per_minute = 60.0 * REFERENCE.snapshot_rate
+    return {
+        "name": f"overlay encoding, {n} flies",
+        "value": best["numpy"] * 1e3,
+        "unit": "ms per snapshot",
+        "reference": "an SDK Point2 and Color per fly",
+        "ratio": best["numpy"] / best["sdk"],
+        "note": f"was {best['sdk'] * 1e3:.2f} ms; "
+        f"{(best['sdk'] - best['numpy']) * snapshots_per_minute:.2f} s of main thread saved "
+        "per minute of log, same bytes",
+    }
+
+
+def _sdk_poses_in_frame(poses: np.ndarray, stamp_ns: int) -> bytes:
+    """The path as it was encoded before: one SDK Pose per pose."""
+    half = poses[:, 2] / 2.0
+    rows = zip(poses[:, 0].tolist(), poses[:, 1].tolist(), np.sin(half).tolist(),
+               np.cos(half).tolist(), strict=True)  # fmt: skip
+    pose, vector, quaternion = fm.Pose, fm.Vector3, fm.Quaternion
+    return fm.PosesInFrame(
+        timestamp=encode.timestamp(stamp_ns),
+        frame_id="odom",
+        poses=[
+            pose(position=vector(x=x, y=y, z=0.0), orientation=quaternion(x=0.0, y=0.0, z=z, w=w))
+            for x, y, z, w in rows
+        ],
+    ).encode()
+
+
+def _path_encoding() -> dict:
+    n = 360  # the mean path length of the 60 s reference run
+    t = 12_345_678_901
+    steps = np.random.default_rng(1).normal(0.0, 0.05, (n, 2)).cumsum(axis=0)
+    poses = np.column_stack([steps, np.arctan2(steps[:, 1], steps[:, 0])])
+    same = encode.poses_in_frame(poses, t, "odom").encode() == _sdk_poses_in_frame(poses, t)
+    assert same, "the path encoder no longer writes what the SDK writes"
+    best = _best_of(
+        {
+            "sdk": lambda: _sdk_poses_in_frame(poses, t),
+            "numpy": lambda: encode.poses_in_frame(poses, t, "odom").encode(),
+        },
+        number=20,
+    )
+    return {
+        "name": f"path encoding, {n} poses",
+        "value": best["numpy"] * 1e3,
+        "unit": "ms per snapshot",
+        "reference": "an SDK Pose, Vector3 and Quaternion per pose",
+        "ratio": best["numpy"] / best["sdk"],
+        "note": f"was {best['sdk'] * 1e3:.2f} ms (on the planner's thread, holding the GIL); "
+        "same bytes",
+    }
+
+
+def _cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def _run_log_compression(run: Path, out_dir: Path) -> list[dict]:
+    """Rewrite the reference run's messages with each chunk compression: CPU to write them
+    (the replay's main thread does it) and to read them back (flylog metrics does)."""
+    with run.open("rb") as fh:
+        found = list(make_reader(fh).iter_messages(log_time_order=False))
+    path = out_dir / "bench_replay_rewrite.mcap"
+    figures = {}
+    for _ in range(3):
+        for compression in (CompressionType.LZ4, CompressionType.NONE):
+            c0 = _cpu()
+            with path.open("wb") as fh:
+                writer = Writer(fh, chunk_size=4 * 1024 * 1024, compression=compression)
+                writer.start()
+                ids: dict[int, int] = {}
+                for schema, channel, message in found:
+                    if channel.id not in ids:
+                        sid = writer.register_schema(schema.name, schema.encoding, schema.data)
+                        ids[channel.id] = writer.register_channel(
+                            channel.topic, channel.message_encoding, sid
+                        )
+                    writer.add_message(ids[channel.id], message.log_time, message.data,
+                                       message.publish_time)  # fmt: skip
+                writer.finish()
+            write_cpu = _cpu() - c0
+            c0 = _cpu()
+            with path.open("rb") as fh:
+                for _ in make_reader(fh).iter_messages():
+                    pass
+            read_cpu = _cpu() - c0
+            size = path.stat().st_size / 1e6
+            old = figures.get(compression.name, (math.inf, math.inf, size))
+            figures[compression.name] = (min(old[0], write_cpu), min(old[1], read_cpu), size)
+    path.unlink()
+    (lz4_w, lz4_r, lz4_mb), (none_w, none_r, none_mb) = figures["LZ4"], figures["NONE"]
+    return [
+        {
+            "name": "run log written uncompressed (was lz4), 60 s reference run",
+            "value": none_w,
+            "unit": "s CPU to write",
+            "reference": "lz4",
+            "ratio": none_w / lz4_w,
+            "note": f"lz4 {lz4_w:.2f} s; {none_mb:.0f} MB against {lz4_mb:.0f} MB; reading "
+            f"back {none_r:.2f} s CPU against {lz4_r:.2f} s",
+        }
+    ]
+
+
+def _reading_allocator(log: Path) -> list[dict]:
+    """Reading the reference log's sensor topics with glibc's default malloc thresholds and
+    with the CLI's (flylog.cli.main.keep_large_blocks), in child processes, interleaved."""
+    best = {"default": (math.inf, 0), "tuned": (math.inf, 0)}
+    for _ in range(3):
+        for mode in best:
+            done = subprocess.run(
+                [sys.executable, "-c", _READ_CHILD, str(log), mode],
+                capture_output=True, text=True, check=True,
+            )  # fmt: skip
+            cpu, faults = done.stdout.split()
+            if float(cpu) < best[mode][0]:
+                best[mode] = (float(cpu), int(faults))
+    (d_cpu, d_faults), (t_cpu, t_faults) = best["default"], best["tuned"]
+    return [
+        {
+            "name": "reading the 60 s log's sensor topics, malloc thresholds raised",
+            "value": t_cpu,
+            "unit": "s CPU",
+            "reference": "glibc defaults",
+            "ratio": t_cpu / d_cpu,
+            "note": f"default {d_cpu:.2f} s CPU, {d_faults} page faults; tuned {t_faults} faults",
+        }
+    ]
+
+
+def _overheads(out_dir: Path) -> list[dict]:
+    log = _log(out_dir, "corridor", 60.0)
+    figures = [_overlay_encoding(), _path_encoding()]
+    run = out_dir / "bench_replay_run.mcap"
+    if run.exists():  # written by _speed
+        figures += _run_log_compression(run, out_dir)
+    return figures + _reading_allocator(log)
+
+
 def run(out_dir: Path) -> list[dict]:
-    return _speed(out_dir) + _latency(out_dir)
+    return _speed(out_dir) + _overheads(out_dir) + _latency(out_dir)

@@ -1,6 +1,7 @@
 """The virtual clock: availability, costs, per-frame counts, sync delays, tick visibility."""
 
 import numpy as np
+import pytest
 
 from flylog.geometry import Pose2D
 from flylog.replay.clock import ClockConfig, Mode, VirtualClock
@@ -28,7 +29,7 @@ class Recorder:
         if isinstance(record, StereoPair):
             self.now_pair = record.stamp_ns
 
-    def generation(self):
+    def generation(self, keep_published=True):
         self.generations.append(self.now_pair)
         return self.evals, round(self.evals * 1e9 / self.evals_per_second)
 
@@ -136,3 +137,53 @@ def test_incremental_advance_equals_feeding_everything():
     clock.finish(400 * MS)
     assert steps.generations == whole.generations
     assert steps.ticks == whole.ticks
+
+
+class Keeper(Recorder):
+    """Records whether each generation was told to keep what was published, and whether a
+    tick fired between a generation told not to and the next publish."""
+
+    def __init__(self, **kw) -> None:
+        super().__init__(**kw)
+        self.keeps: list[bool] = []
+        self.dropped = False  # what was published is gone until the next publish
+        self.bad_ticks: list[int] = []
+
+    def generation(self, keep_published=True):
+        self.keeps.append(keep_published)
+        self.dropped |= not keep_published
+        return super().generation(keep_published)
+
+    def publish(self, t_ns):
+        self.dropped = False
+        super().publish(t_ns)
+
+    def tick(self, name, t_ns):
+        if self.dropped:
+            self.bad_ticks.append(t_ns)
+        super().tick(name, t_ns)
+
+
+@pytest.mark.parametrize(("mode", "gpf"), [(Mode.ASYNC, 1), (Mode.PER_FRAME, 5), (Mode.SYNC, 5)])
+def test_published_population_is_dropped_only_when_no_tick_can_read_it(mode, gpf):
+    # 2 ms generations, ticks every 11 and 23 ms: some fall inside bursts of generations;
+    # "edge" falls due on the last nanosecond of the generation that starts at 400 ms
+    pipeline = Keeper(evals=2000, evals_per_second=1e6)
+    ticks = {"a": 11 * MS, "b": 23 * MS, "edge": 402 * MS - 1}
+    cfg = ClockConfig(mode, gpf, 100 * MS, ticks, 2 * MS)
+    run(frames(6), pipeline, cfg, 600 * MS)
+    assert pipeline.bad_ticks == []
+    assert True in pipeline.keeps and False in pipeline.keeps  # the saving happens
+
+
+def test_a_generation_costlier_than_the_bound_is_an_error():
+    pipeline = Keeper(evals=3000, evals_per_second=1e6)  # 3 ms, the clock was told 2
+    cfg = ClockConfig(Mode.PER_FRAME, 5, 100 * MS, {"a": 50 * MS}, 2 * MS)
+    with pytest.raises(RuntimeError, match="more than the 2000000 ns"):
+        run(frames(3), pipeline, cfg, 300 * MS)
+
+
+def test_without_a_bound_every_generation_keeps_it():
+    pipeline = Keeper()
+    run(frames(3), pipeline, config(Mode.PER_FRAME, 3, {"a": 30 * MS}), 300 * MS)
+    assert pipeline.keeps and all(pipeline.keeps)

@@ -1,5 +1,6 @@
 """`flylog replay` on the fixture logs: outputs, determinism, truth-blindness, errors."""
 
+import dataclasses
 import json
 import re
 from pathlib import Path
@@ -9,7 +10,7 @@ import pytest
 from click.testing import CliRunner
 
 from flylog.cli.main import cli
-from flylog.config import from_mapping
+from flylog.config import from_mapping, replace_dotted
 from flylog.io import contract
 from flylog.io.reader import open_log
 from flylog.replay.config import ReplayConfig
@@ -184,13 +185,22 @@ def test_help_defaults_match_the_configuration():
     assert f"[default: {cfg.snapshot_rate:g} Hz]" in text
 
 
-def _pipeline_outputs(planner_thread: bool) -> tuple[list, list]:
-    """Every message and table row of a replay of CORRIDOR, run through the pipeline."""
+def _pipeline_outputs(
+    planner_thread: bool, config: ReplayConfig = SMALL, *, copy_at_publish: bool = False
+) -> tuple[list, list]:
+    """Every message and table row of a replay of CORRIDOR, run through the pipeline
+    (``copy_at_publish``: as the pipeline once was, copying the population at each publish,
+    and the clock never saying that no tick can read it)."""
     from flylog.io.pairing import pair_stereo
     from flylog.replay.clock import VirtualClock
     from flylog.replay.inputs import SENSOR_TOPICS, replay_inputs
     from flylog.replay.pipeline import FlyPipeline
     from flylog.replay.run import clock_config
+
+    class CopyAtPublish(FlyPipeline):
+        def publish(self, t_ns: int) -> None:
+            super().publish(t_ns)
+            self._published_population()  # the copy made now, not when first read
 
     reader = open_log(CORRIDOR)
     inputs = replay_inputs(reader, goal=None)
@@ -200,11 +210,14 @@ def _pipeline_outputs(planner_thread: bool) -> tuple[list, list]:
         data = message.encode() if hasattr(message, "encode") else json.dumps(message)
         written.append((topic, t_ns, data))
 
-    pipeline = FlyPipeline(
-        SMALL, inputs.rig, inputs.start, inputs.goal, write,
+    pipeline = (CopyAtPublish if copy_at_publish else FlyPipeline)(
+        config, inputs.rig, inputs.start, inputs.goal, write,
         on_row=rows.append, planner_thread=planner_thread,
     )  # fmt: skip
-    clock = VirtualClock(pipeline, clock_config(SMALL, inputs.frame_period_ns))
+    timing = clock_config(config, inputs.frame_period_ns)
+    if copy_at_publish:
+        timing = dataclasses.replace(timing, max_generation_cost_ns=None)
+    clock = VirtualClock(pipeline, timing)
     for message in pair_stereo(reader.messages(SENSOR_TOPICS)):
         clock.feed(message.value)
     clock.finish(inputs.end_ns)
@@ -217,3 +230,15 @@ def test_planner_on_its_own_thread_changes_no_output():
     inline, threaded = _pipeline_outputs(False), _pipeline_outputs(True)
     assert len(inline[0]) > 50 and len(inline[1]) == 21
     assert threaded == inline
+
+
+@pytest.mark.parametrize(
+    "overrides",
+    [{}, {"generations_per_frame": 0}, {"sync": True, "generations_per_frame": 3}],
+    ids=["per-frame", "async", "sync"],
+)
+def test_copying_the_published_population_only_when_read_changes_no_output(overrides):
+    config = replace_dotted(SMALL, overrides)
+    lazy = _pipeline_outputs(False, config)
+    assert lazy == _pipeline_outputs(False, config, copy_at_publish=True)
+    assert len(lazy[0]) > 50
