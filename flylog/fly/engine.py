@@ -17,18 +17,19 @@ from flylog.errors import FlylogError
 from flylog.fly.config import Backend, EngineConfig
 from flylog.fly.fitness import (
     INVALID_FITNESS,
+    PARALLEL_MIN_EVALUATIONS,
     as_planes,
     fitness_into,
     fitness_numpy,
-    left_projections_numba,
     rig_constants,
 )
 from flylog.fly.fusion import (
     arc_constants,
     fired_arcs,
     fired_sonars,
+    move_by_odometry,
     moved_by_odometry,
-    sonar_fuse_into,
+    score_into,
     sonar_fused,
     sonar_immigrants,
 )
@@ -92,6 +93,7 @@ class FlyEngine:
         self._rig_constants = rig_constants(rig)
         self._counter = NeighbourCounter()
         self._all = np.arange(config.flies, dtype=np.int64)
+        self._none = self._all[:0]
         self._newcomers = self._all[config.survivors :]
         self._work = np.empty(2 * config.flies)  # selection's scratch
         self._newcomer_k = newcomer_constants(rig, config.d_min, config.d_max, self._margin)
@@ -102,9 +104,13 @@ class FlyEngine:
         self._breed = self._breeding()
         self._left: np.ndarray | None = None
         self._right: np.ndarray | None = None
+        no_rows = np.empty((0, 0), dtype=np.uint8)
+        self._rows: tuple[np.ndarray, np.ndarray, int] = (no_rows, no_rows, 0)  # set_images
         self._stamp_ns = -1
         self._sonar: SonarReading | None = None
         self._sonars = np.empty((0, 5))  # fired_sonars(self._sonar)
+        self._no_sonars = self._sonars
+        self._cos_half_cone = 1.0
         self._arcs = np.empty((0, 4))  # fired_arcs(self._sonar)
         self._arc_k = arc_constants(rig, self._margin)
         # The reading every fly's fitness was fused with (None: fitness = vision); a fly's
@@ -125,12 +131,19 @@ class FlyEngine:
             )
             raise FlylogError(msg)
         self._left, self._right, self._stamp_ns = left, right, pair.stamp_ns
+        height, width, channels = left.shape  # the compiled kernels read (H, W·C) rows
+        self._rows = (
+            left.reshape(height, width * channels),
+            right.reshape(height, width * channels),
+            channels,
+        )
         self._pop.stale[:] = True
 
     def set_sonar(self, reading: SonarReading) -> None:
         """Use this sonar reading (in base_link) for fusion until the next one."""
         self._sonar = reading
         self._sonars = fired_sonars(reading)
+        self._cos_half_cone = math.cos(reading.half_cone)
         self._arcs = fired_arcs(reading)
 
     def apply_motion(self, increment: Pose2D) -> None:
@@ -143,7 +156,10 @@ class FlyEngine:
         term, which depends on where the fly is now relative to the cones, is recomputed."""
         if not self.config.proprioception:
             return
-        self._pop.xyz = moved_by_odometry(self._pop.xyz, increment)
+        if self._numba:
+            move_by_odometry(self._pop.xyz, increment)
+        else:
+            self._pop.xyz = moved_by_odometry(self._pop.xyz, increment)
         self._fused_with = _MOVED
 
     # --- outputs ----------------------------------------------------------------------------
@@ -174,15 +190,19 @@ class FlyEngine:
         if pop.stale.all():
             stale = self._all
         else:
-            stale = np.flatnonzero(pop.stale) if pop.stale.any() else self._all[:0]
-        evaluations = self._evaluate(stale)
-        self._fuse(stale)
-        counts = self._neighbour_counts(pop) if self._sharing else None
+            stale = np.flatnonzero(pop.stale) if pop.stale.any() else self._none
+        evaluations = self._score(stale)
         nxt = self._spare
         n_immigrants = self._n_immigrants
         # random numbers in this order: sonar arcs, uniform immigrants, breeding
         if self._numba:
-            k = pop.select_into(nxt, self._survivors, counts, cfg.sharing_coefficient, self._work)
+            if self._sharing:
+                k = pop.select_sharing_into(
+                    nxt, self._survivors, cfg.sharing_coefficient, self._work,
+                    self._rig_constants, self._radius, self._counter,
+                )  # fmt: skip
+            else:
+                k = pop.select_into(nxt, self._survivors, None, 0.0, self._work)
             n_children = cfg.flies - k - n_immigrants
             at = k + n_children
             n_sonar = immigrants_and_children_into(
@@ -191,6 +211,7 @@ class FlyEngine:
                 self._n_sonar(n_immigrants), nxt.xyz[k:at], nxt.xyz[at:],
             )  # fmt: skip
         else:
+            counts = self._neighbour_counts(pop) if self._sharing else None
             ranked = pop.fitness if counts is None else shared_fitness(
                 pop.fitness, counts, cfg.sharing_coefficient
             )  # fmt: skip
@@ -207,8 +228,7 @@ class FlyEngine:
             )  # fmt: skip
             pop.survivors_then(keep, np.concatenate([children, from_sonar, uniform]), out=nxt)
         self._pop, self._spare = nxt, pop
-        evaluations += self._evaluate(self._newcomers)
-        self._fuse(self._newcomers)
+        evaluations += self._score(self._newcomers)
         self._generation += 1
         return GenerationStats(
             generation=self._generation,
@@ -238,58 +258,66 @@ class FlyEngine:
             cfg.disparity_mutation_scale * self._radius,
         )
 
-    def _evaluate(self, index: np.ndarray) -> int:
-        """Vision fitness of the flies ``index`` (all stale) on the newest images."""
-        if len(index) == 0:
-            return 0
+    def _score(self, index: np.ndarray) -> int:
+        """Vision fitness of the flies ``index`` (all stale) on the newest images, then the
+        fused fitness of those (of every fly if the reading changed or the flies moved).
+        Returns how many were evaluated."""
+        cfg = self.config
+        reading = self._sonar if cfg.sonar_fitness and cfg.sonar_bonus != 0 else None
+        fuse = index
+        if reading is not self._fused_with:
+            fuse, self._fused_with = self._all, reading
+        if self._numba:
+            self._score_numba(index, fuse, self._no_sonars if reading is None else self._sonars)
+        else:
+            self._score_numpy(index, fuse, reading)
+        return len(index)
+
+    def _score_numba(self, index: np.ndarray, fuse: np.ndarray, sonars: np.ndarray) -> None:
+        """One compiled call (:func:`~flylog.fly.fusion.score_into`), after the parallel
+        fitness kernel when there are enough flies to make it pay."""
+        pop, cfg = self._pop, self.config
+        left, right, channels = self._rows
+        if len(index) >= PARALLEL_MIN_EVALUATIONS:
+            fitness_into(
+                left, right, channels, pop.xyz, index, self._rig_constants, cfg.window,
+                float(cfg.guard), pop.vision,
+            )  # fmt: skip
+            pop.stale[index] = False
+            pop.stamp_ns[index] = self._stamp_ns
+            index = self._none
+        score_into(
+            left, right, channels, pop.xyz, index, self._rig_constants, cfg.window,
+            float(cfg.guard), self._stamp_ns, pop.vision, pop.stale, pop.stamp_ns, sonars,
+            self._cos_half_cone, cfg.sonar_tolerance, cfg.sonar_bonus, fuse, pop.fitness,
+        )  # fmt: skip
+
+    def _score_numpy(
+        self, index: np.ndarray, fuse: np.ndarray, reading: SonarReading | None
+    ) -> None:
         pop, cfg = self._pop, self.config
         assert self._left is not None and self._right is not None
-        if self._numba:
-            height, width, channels = self._left.shape
-            fitness_into(
-                self._left.reshape(height, width * channels),
-                self._right.reshape(height, width * channels),
-                channels, pop.xyz, index, self._rig_constants, cfg.window, float(cfg.guard),
-                pop.vision,
-            )  # fmt: skip
-        else:
+        if len(index):
             pop.vision[index] = fitness_numpy(
                 self._left, self._right, pop.xyz[index], self.rig, cfg.window, cfg.guard
             )
-        pop.stale[index] = False
-        pop.stamp_ns[index] = self._stamp_ns
-        return len(index)
-
-    def _fuse(self, index: np.ndarray) -> None:
-        """The fused fitness of the flies ``index`` (of every fly if the reading changed or
-        the flies moved)."""
-        cfg, pop = self.config, self._pop
-        reading = self._sonar if cfg.sonar_fitness and cfg.sonar_bonus != 0 else None
-        if reading is not self._fused_with:
-            index, self._fused_with = self._all, reading
-        if len(index) == 0:
+            pop.stale[index] = False
+            pop.stamp_ns[index] = self._stamp_ns
+        if len(fuse) == 0:
             return
         if reading is None or len(self._sonars) == 0:
-            pop.fitness[index] = pop.vision[index]
-        elif self._numba:
-            sonar_fuse_into(
-                pop.vision, pop.xyz, self._sonars, math.cos(reading.half_cone),
-                cfg.sonar_tolerance, cfg.sonar_bonus, index, pop.fitness,
-            )  # fmt: skip
+            pop.fitness[fuse] = pop.vision[fuse]
         else:
-            pop.fitness[index] = sonar_fused(
-                pop.vision[index], pop.xyz[index], reading, bonus=cfg.sonar_bonus,
+            pop.fitness[fuse] = sonar_fused(
+                pop.vision[fuse], pop.xyz[fuse], reading, bonus=cfg.sonar_bonus,
                 tolerance=cfg.sonar_tolerance, use_numba=False,
             )  # fmt: skip
 
     def _neighbour_counts(self, pop: Population) -> np.ndarray:
-        """Each valid fly's neighbours within R in the left image (what sharing needs)."""
-        valid = pop.fitness > INVALID_FITNESS
-        if self._numba:
-            u_left, v = left_projections_numba(pop.xyz, self._rig_constants)
-            return self._counter(u_left, v, valid, self._radius)
+        """The numpy path's neighbour counts: each valid fly's neighbours within R in the left
+        image (the compiled path counts them in :meth:`Population.select_sharing_into`)."""
         u_left, _, v, _ = self.rig.project(pop.xyz)
-        return neighbour_counts_numpy(u_left, v, valid, self._radius)
+        return neighbour_counts_numpy(u_left, v, pop.fitness > INVALID_FITNESS, self._radius)
 
     @property
     def _half_cone(self) -> float:

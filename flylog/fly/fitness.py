@@ -318,6 +318,10 @@ def _fitness_serial(lrow, rrow, channels, xyz, index, k, window, guard, out):  #
     )
 
 
+# For kernels that score flies as part of a larger compiled call (one thread, no dispatch).
+fitness_serial = _fitness_serial
+
+
 def fitness_into(
     left_rows: np.ndarray,
     right_rows: np.ndarray,

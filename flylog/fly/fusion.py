@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from flylog.fly.fitness import fitness_serial
 from flylog.geometry import Pose2D, StereoRig, inverse, transform_points_2d
 from flylog.sensors import SonarReading
 
@@ -287,3 +288,39 @@ def moved_by_odometry(xyz: np.ndarray, increment: Pose2D) -> np.ndarray:
     """Proprioception as an operator: the flies, fixed in the world, seen from the robot
     after it moved by ``increment`` (the odometry increment ``relative(prev, new)``)."""
     return transform_points_2d(inverse(increment), xyz)
+
+
+def move_by_odometry(xyz: np.ndarray, increment: Pose2D) -> None:
+    """:func:`moved_by_odometry` in place, compiled (the same numbers: the same scalar cos and
+    sin, the same operations in the same order), for C-contiguous float64 ``xyz`` (N, 3)."""
+    pose = inverse(increment)
+    _move_kernel(xyz, pose.x, pose.y, math.cos(pose.theta), math.sin(pose.theta))
+
+
+@numba.njit(cache=True, nogil=True)
+def _move_kernel(xyz, x, y, c, s):  # pragma: no cover - compiled
+    """transform_points_2d's arithmetic, in place."""
+    for i in range(xyz.shape[0]):
+        px, py = xyz[i, 0], xyz[i, 1]
+        xyz[i, 0] = x + c * px - s * py
+        xyz[i, 1] = y + s * px + c * py
+
+
+@numba.njit(cache=True, nogil=True)
+def score_into(lrows, rrows, channels, xyz, index, k, window, guard, stamp, vision, stale,
+               stamp_ns, sonars, cos_half_cone, tolerance, bonus, fuse_index,
+               fitness):  # fmt: skip  # pragma: no cover - compiled
+    """A generation's scoring in one call: the vision fitness of the flies ``index``
+    (:func:`~flylog.fly.fitness.fitness_into`'s serial kernel, their ``stale`` cleared and
+    ``stamp_ns`` set to ``stamp``), then the fused fitness of the flies ``fuse_index``: the
+    vision fitness, times the sonar bonus (:func:`sonar_fuse_into`) if ``sonars`` has a row."""
+    if index.shape[0] > 0:
+        fitness_serial(lrows, rrows, channels, xyz, index, k, window, guard, vision)
+        for t in range(index.shape[0]):
+            stale[index[t]] = False
+            stamp_ns[index[t]] = stamp
+    if sonars.shape[0] > 0:
+        sonar_fuse_into(vision, xyz, sonars, cos_half_cone, tolerance, bonus, fuse_index, fitness)
+    else:
+        for t in range(fuse_index.shape[0]):
+            fitness[fuse_index[t]] = vision[fuse_index[t]]

@@ -8,8 +8,9 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from flylog.fly.fitness import INVALID_FITNESS
 from flylog.fly.fusion import sonar_immigrants_into
-from flylog.fly.sorting import median_in_place, select_in_place
+from flylog.fly.sorting import median_radix, select_radix
 from flylog.geometry import StereoRig
 
 
@@ -32,12 +33,10 @@ def survivor_indices(shared_fitness: np.ndarray, keep: int) -> np.ndarray:
 @numba.njit(cache=True, nogil=True)
 def survivors_cut(score, keep, work):  # pragma: no cover - compiled
     """(cut, ties): the ``keep`` flies :func:`survivor_indices` takes are those with
-    ``score > cut`` and the first ``ties`` with ``score == cut``; ``work`` (≥ N) is scratch.
-    Needs 0 < keep < N."""
+    ``score > cut`` and the first ``ties`` with ``score == cut``; ``work`` (≥ N, contiguous)
+    is scratch. Needs 0 < keep < N."""
     n = score.shape[0]
-    for i in range(n):
-        work[i] = score[i]
-    cut = select_in_place(work[:n], n - keep)
+    cut = select_radix(score, n - keep, work[:n].view(np.uint64))
     above = 0
     for i in range(n):
         above += score[i] > cut
@@ -76,149 +75,161 @@ def neighbour_counts_numpy(
     return near.sum(axis=1).astype(np.int64)
 
 
-# The sort never has more than this many bands, nor columns, per valid fly (they grow
-# instead), so its buffers are O(N) whatever the spread of the points.
-_BINS_PER_FLY = 4
+# The grid never has more cells than this many per valid fly, plus a few (its cells grow
+# instead), so its buffer is O(N) whatever the spread of the points.
+_CELLS_PER_FLY = 8
+_MIN_CELLS = 16
 
 
 def grid_buffer_size(n: int) -> int:
-    """Length of the int64 scratch ``starts`` :func:`neighbour_counts_into` needs for ``n``
-    flies (column and band starts, keys and a sorted index)."""
-    return 2 * _BINS_PER_FLY * n + 2 * n + 4
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _count_run(ua, va, ca, uv, sorted_, near, t, hi, reach, r2):  # pragma: no cover - compiled
-    """Pairs within R between the fly at (ua, va) (sort key ca) and the sorted flies t…hi
-    whose keys are less than ``reach`` above ca: adds 1 to ``near`` of each, returns their
-    number."""
-    total = 0
-    while t < hi and sorted_[t] - ca < reach:
-        du = ua - uv[t, 0]
-        dv = va - uv[t, 1]
-        hit = du * du + dv * dv <= r2
-        total += hit
-        near[t] += hit
-        t += 1
-    return total
+    """Length of the int64 scratch ``grid`` the counting kernels need for ``n`` flies."""
+    return _CELLS_PER_FLY * n + _MIN_CELLS + 1
 
 
 @numba.njit(cache=True, nogil=True)
-def neighbour_counts_into(u, v, valid, radius, starts, order, uv, near, counts):  # pragma: no cover
-    """Same counts as :func:`neighbour_counts_numpy`, written into ``counts``, by a sweep.
+def _grid_counts(puv, pidx, m, radius, grid, ints, suv, counts):  # pragma: no cover - compiled
+    """Adds to ``counts[pidx[t]]`` the neighbours of the ``m`` valid flies at ``puv[t]``.
 
-    The valid flies are sorted by band (rows of height ≥ R) and, within a band, by column
-    (¼ R wide): two counting sorts, no cell grid to walk. Two flies within R are in the same
-    band or in adjacent ones and fewer than ``reach`` columns apart, so each fly is tested
-    against the flies after it in its band and the flies of the next band, both while the
-    column gap stays below ``reach`` (the latter from a pointer that only moves forward).
-    ``starts`` is int64 scratch of :func:`grid_buffer_size`; ``order``, ``uv`` (N, 2) and
-    ``near`` at least N long."""
-    n = u.shape[0]
+    The flies are sorted by the cell of a grid whose cells are at least R wide (a stable
+    counting sort, rows then columns), with an empty column of padding on the left, two on the
+    right and an empty row below. Two flies within R are then in the same or adjacent cells,
+    and the flies a fly still has to test (each pair once) are two contiguous runs of the
+    sorted flies: the rest of its cell and the next cell of its row, then the three cells
+    below, walked as one loop. Their bounds are cell starts: no search (the sweep this
+    replaces searched them, and its loop exits, mispredicted on fresh flies every generation,
+    were most of its time). ``ints`` is (4, ≥ m) int64 scratch, ``suv`` (≥ m, 2) float64."""
+    cell, order, near, sorted_cell = ints[0], ints[1], ints[2], ints[3]
     umin, vmin, umax, vmax = np.inf, np.inf, -np.inf, -np.inf
-    n_valid = 0
-    for i in range(n):
+    for t in range(m):
+        umin, umax = min(umin, puv[t, 0]), max(umax, puv[t, 0])
+        vmin, vmax = min(vmin, puv[t, 1]), max(vmax, puv[t, 1])
+    w, h = umax - umin, vmax - vmin
+    limit = _CELLS_PER_FLY * m + _MIN_CELLS
+    # A hair above R: two points R apart can never land two cells apart through rounding.
+    side = max(radius * (1.0 + 1e-6), 1e-300)
+    while True:
+        inv = 1.0 / side
+        if w * inv < limit and h * inv < limit:
+            n_cols, n_rows = int(w * inv) + 1, int(h * inv) + 1
+            if (n_cols + 3) * (n_rows + 1) <= limit:
+                break
+        side *= 2.0
+    stride = n_cols + 3
+    n_cells = stride * (n_rows + 1)
+    starts = grid[: n_cells + 1]
+    starts[:] = 0
+    for t in range(m):
+        q = int((puv[t, 1] - vmin) * inv) * stride + int((puv[t, 0] - umin) * inv) + 1
+        cell[t] = q
+        starts[q] += 1
+    total = 0
+    for q in range(n_cells + 1):
+        total += starts[q]
+        starts[q] = total  # the end of cell q, for now
+    for t in range(m - 1, -1, -1):  # backwards, so stable; each end becomes its cell's start
+        q = cell[t]
+        at = starts[q] - 1
+        starts[q] = at
+        order[at] = t
+    for s in range(m):
+        t = order[s]
+        suv[s, 0] = puv[t, 0]
+        suv[s, 1] = puv[t, 1]
+        sorted_cell[s] = cell[t]
+        near[s] = 0
+    r2 = radius * radius
+    for s in range(m):
+        q = sorted_cell[s]
+        ua, va = suv[s, 0], suv[s, 1]
+        found = 0
+        # flies s+1 … (end of the next cell), then lo … hi: one loop, one exit
+        same = starts[q + 2] - (s + 1)
+        lo, hi = starts[q + stride - 1], starts[q + stride + 2]
+        jump = lo - (s + 1) - same
+        for j in range(same + hi - lo):
+            t = s + 1 + j + (j >= same) * jump
+            du = ua - suv[t, 0]
+            dv = va - suv[t, 1]
+            hit = du * du + dv * dv <= r2
+            found += hit
+            near[t] += hit
+        near[s] += found
+    for s in range(m):
+        counts[pidx[order[s]]] += near[s]
+
+
+@numba.njit(cache=True, nogil=True)
+def neighbour_counts_into(u, v, valid, radius, grid, ints, uv, counts):  # pragma: no cover
+    """Same counts as :func:`neighbour_counts_numpy`, written into ``counts``, by a grid of
+    R-cells (:func:`_grid_counts`). ``grid`` is int64 scratch of :func:`grid_buffer_size`,
+    ``ints`` (5, ≥ N) int64 and ``uv`` (2, ≥ N, 2) float64 scratch."""
+    m = 0
+    for i in range(u.shape[0]):
         counts[i] = 0
         if valid[i]:
-            n_valid += 1
-            umin, umax = min(umin, u[i]), max(umax, u[i])
-            vmin, vmax = min(vmin, v[i]), max(vmax, v[i])
-    if n_valid == 0:
-        return
-    limit = _BINS_PER_FLY * n_valid
-    w, h = umax - umin, vmax - vmin
-    # A hair above R: two points R apart can never land two bands apart through rounding.
-    band = max(radius * (1.0 + 1e-6), 1.0, h / limit)
-    column = max(band / 4.0, w / limit)
-    inv_band, inv_column = 1.0 / band, 1.0 / column
-    n_bands = int(h * inv_band) + 1
-    n_columns = int(w * inv_column) + 1
-    # Flies within R are at most ⌊R/column⌋ + 1 columns apart (1e-9 more against rounding).
-    reach = int(radius * inv_column * (1.0 + 1e-9)) + 2
-    column_start = starts[: n_columns + 1]
-    band_start = starts[n_columns + 1 : n_columns + n_bands + 3]
-    band_of = starts[n_columns + n_bands + 3 : n_columns + n_bands + 3 + n]
-    sorted_ = starts[n_columns + n_bands + 3 + n : n_columns + n_bands + 3 + 2 * n]
-    column_start[:] = 0
-    band_start[:] = 0
-    for i in range(n):
-        if valid[i]:
-            b = int((v[i] - vmin) * inv_band)
-            band_of[i] = b
-            column_start[int((u[i] - umin) * inv_column) + 1] += 1
-            band_start[b + 2] += 1
-    for c in range(n_columns):
-        column_start[c + 1] += column_start[c]
-    for b in range(2, n_bands + 2):
-        band_start[b] += band_start[b - 1]
-    # by column, then stably by band (through band_start[b + 1], which ends as band b's end)
-    for i in range(n):
-        if valid[i]:
-            c = int((u[i] - umin) * inv_column)
-            sorted_[column_start[c]] = i
-            column_start[c] += 1
-    for t in range(n_valid):
-        i = sorted_[t]
-        b = band_of[i]
-        at = band_start[b + 1]
-        order[at] = i
-        band_start[b + 1] = at + 1
-    # (a separate pass: writing these in the scatter above made it several times slower)
-    for t in range(n_valid):
-        i = order[t]
-        uv[t, 0] = u[i]
-        uv[t, 1] = v[i]
-        near[t] = 0
-        sorted_[t] = int((u[i] - umin) * inv_column)  # now the column of sorted fly t
-    r2 = radius * radius
-    for b in range(n_bands):
-        lo_a, hi_a = band_start[b], band_start[b + 1]
-        lo_b = hi_a
-        hi_b = band_start[b + 2] if b + 1 < n_bands else hi_a
-        for a in range(lo_a, hi_a):
-            ua, va, ca = uv[a, 0], uv[a, 1], sorted_[a]
-            total = _count_run(ua, va, ca, uv, sorted_, near, a + 1, hi_a, reach, r2)
-            while lo_b < hi_b and ca - sorted_[lo_b] >= reach:
-                lo_b += 1
-            total += _count_run(ua, va, ca, uv, sorted_, near, lo_b, hi_b, reach, r2)
-            near[a] += total
-    for t in range(n_valid):
-        counts[order[t]] = near[t]
+            uv[0, m, 0] = u[i]
+            uv[0, m, 1] = v[i]
+            ints[0, m] = i
+            m += 1
+    if m > 0:
+        _grid_counts(uv[0], ints[0], m, radius, grid, ints[1:], uv[1], counts)
+
+
+@numba.njit(cache=True, nogil=True)
+def fly_neighbour_counts_into(xyz, k, fitness, radius, grid, ints, uv, counts):  # pragma: no cover
+    """The same counts for the flies themselves: valid = fitness > INVALID_FITNESS, (u, v)
+    their left projections (``StereoRig.project``'s numbers, ``k`` from
+    :func:`~flylog.fly.fitness.rig_constants`); scratch as for :func:`neighbour_counts_into`."""
+    focal, cx, cy, half_b, mount_x, mount_h = k[0], k[1], k[2], k[3], k[4], k[5]
+    m = 0
+    for i in range(xyz.shape[0]):
+        counts[i] = 0
+        if fitness[i] > INVALID_FITNESS:
+            depth = xyz[i, 0] - mount_x
+            safe = depth if depth > 1e-9 else 1e-9
+            uv[0, m, 0] = cx - focal * (xyz[i, 1] - half_b) / safe
+            uv[0, m, 1] = cy - focal * (xyz[i, 2] - mount_h) / safe
+            ints[0, m] = i
+            m += 1
+    if m > 0:
+        _grid_counts(uv[0], ints[0], m, radius, grid, ints[1:], uv[1], counts)
 
 
 class NeighbourCounter:
-    """:func:`neighbour_counts_into` with buffers kept between calls (the engine counts
-    every generation; the sort's buffers are not reallocated each time)."""
+    """The counting kernels with their scratch kept between calls (the engine counts every
+    generation)."""
 
     def __init__(self) -> None:
         self._n = -1
-        self._starts = np.empty(0, dtype=np.int64)
-        self._order = np.empty(0, dtype=np.int64)
-        self._uv = np.empty((0, 2))
-        self._near = np.empty(0, dtype=np.int64)
+        self.grid = np.empty(0, dtype=np.int64)
+        self.ints = np.empty((5, 0), dtype=np.int64)
+        self.uv = np.empty((2, 0, 2))
+        self.counts = np.empty(0, dtype=np.int64)  # for kernels that leave their counts here
+
+    def scratch(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(grid, ints, uv) for ``n`` flies (and ``counts``), reallocated only when ``n``
+        changes."""
+        if n != self._n:
+            self._n = n
+            self.grid = np.empty(grid_buffer_size(n), dtype=np.int64)
+            self.ints = np.empty((5, n), dtype=np.int64)
+            self.uv = np.empty((2, n, 2))
+            self.counts = np.empty(n, dtype=np.int64)
+        return self.grid, self.ints, self.uv
 
     def __call__(
         self, u: np.ndarray, v: np.ndarray, valid: np.ndarray, radius: float
     ) -> np.ndarray:
         """(N,) int64 neighbour counts (a new array)."""
-        n = len(u)
-        if n != self._n:
-            self._n = n
-            self._starts = np.empty(grid_buffer_size(n), dtype=np.int64)
-            self._order = np.empty(n, dtype=np.int64)
-            self._uv = np.empty((n, 2))
-            self._near = np.empty(n, dtype=np.int64)
-        counts = np.empty(n, dtype=np.int64)
-        neighbour_counts_into(
-            u, v, valid, float(radius), self._starts, self._order, self._uv, self._near, counts
-        )
+        counts = np.empty(len(u), dtype=np.int64)
+        neighbour_counts_into(u, v, valid, float(radius), *self.scratch(len(u)), counts)
         return counts
 
 
 def neighbour_counts_numba(
     u: np.ndarray, v: np.ndarray, valid: np.ndarray, radius: float
 ) -> np.ndarray:
-    """Same counts as :func:`neighbour_counts_numpy` (compiled sweep, fresh buffers)."""
+    """Same counts as :func:`neighbour_counts_numpy` (compiled grid, fresh buffers)."""
     return NeighbourCounter()(u, v, valid, radius)
 
 
@@ -234,16 +245,16 @@ def shared_fitness(fitness: np.ndarray, counts: np.ndarray, coefficient: float) 
 
 @numba.njit(cache=True, nogil=True)
 def shared_fitness_into(fitness, counts, coefficient, work, out):  # pragma: no cover - compiled
-    """:func:`shared_fitness` written into ``out``; ``work`` (≥ N) is scratch."""
+    """:func:`shared_fitness` written into ``out`` (contiguous: also the median's scratch);
+    ``work`` (≥ N) is scratch."""
     m = 0
     for i in range(fitness.shape[0]):
-        if fitness[i] > 0:
-            work[m] = fitness[i]
-            m += 1
+        work[m] = fitness[i]
+        m += fitness[i] > 0
     if m == 0:
         out[:] = fitness
         return
-    step = coefficient * median_in_place(work[:m])
+    step = coefficient * median_radix(work[:m], out[:m].view(np.uint64))
     for i in range(fitness.shape[0]):
         out[i] = fitness[i] - step * counts[i] if fitness[i] > 0 else fitness[i]
 
@@ -422,13 +433,31 @@ def newcomers_into(
     pick = np.empty((n, 3), dtype=np.int64)
     for i in range(n):
         which[i] = rng.random()
-    for j in range(3):
-        for i in range(n):
-            if j == 0 or (which[i] < rate2 + rate3 and (j == 1 or which[i] >= rate2)):
-                pick[i, j] = min(np.int64(rng.random() * m), m - 1)
+    # The children of each kind, in child order, listed without a branch on ``which`` (fresh
+    # random numbers: branches on them mispredict): the loops below then draw the same numbers
+    # in the same order as a loop over every child testing its kind.
+    lists = np.empty((4, n), dtype=np.int64)
+    cross, two, three, mutate = lists[0], lists[1], lists[2], lists[3]
+    n_cross = n_two = n_three = n_mutate = 0
     for i in range(n):
-        if which[i] < rate2 + rate3:
-            continue
+        w = which[i]
+        is_cross = w < rate2 + rate3
+        cross[n_cross] = i
+        n_cross += is_cross
+        two[n_two] = i
+        n_two += w < rate2
+        three[n_three] = i
+        n_three += is_cross & (w >= rate2)
+        mutate[n_mutate] = i
+        n_mutate += not is_cross
+    for i in range(n):
+        pick[i, 0] = min(np.int64(rng.random() * m), m - 1)
+    for t in range(n_cross):
+        pick[cross[t], 1] = min(np.int64(rng.random() * m), m - 1)
+    for t in range(n_three):
+        pick[three[t], 2] = min(np.int64(rng.random() * m), m - 1)
+    for t in range(n_mutate):
+        i = mutate[t]
         a = pick[i, 0]
         depth = parents[a, 0] - mount_x
         safe = depth if depth > 1e-9 else 1e-9
@@ -443,21 +472,21 @@ def newcomers_into(
         children[i, 0] = mount_x + z
         children[i, 1] = half_b - (uu - cx) * z / f
         children[i, 2] = mount_h - (vv - cy) * z / f
-    for i in range(n):
-        if which[i] < rate2:
-            a, b = pick[i, 0], pick[i, 1]
-            t = rng.random()
-            for j in range(3):
-                children[i, j] = t * parents[a, j] + (1.0 - t) * parents[b, j]
-    for i in range(n):
-        if rate2 <= which[i] < rate2 + rate3:
-            a, b, c = pick[i, 0], pick[i, 1], pick[i, 2]
-            t, s = rng.random(), rng.random()
-            if t + s > 1.0:
-                t, s = 1.0 - t, 1.0 - s
-            for j in range(3):
-                r = 1.0 - t - s
-                children[i, j] = t * parents[a, j] + s * parents[b, j] + r * parents[c, j]
+    for t in range(n_two):
+        i = two[t]
+        a, b = pick[i, 0], pick[i, 1]
+        t2 = rng.random()
+        for j in range(3):
+            children[i, j] = t2 * parents[a, j] + (1.0 - t2) * parents[b, j]
+    for t in range(n_three):
+        i = three[t]
+        a, b, c = pick[i, 0], pick[i, 1], pick[i, 2]
+        lam, mu = rng.random(), rng.random()
+        if lam + mu > 1.0:
+            lam, mu = 1.0 - lam, 1.0 - mu
+        for j in range(3):
+            r = 1.0 - lam - mu
+            children[i, j] = lam * parents[a, j] + mu * parents[b, j] + r * parents[c, j]
 
 
 @numba.njit(cache=True, nogil=True)

@@ -9,7 +9,12 @@ import numba
 import numpy as np
 
 from flylog.fly.fitness import INVALID_FITNESS
-from flylog.fly.operators import shared_fitness_into, survivors_cut
+from flylog.fly.operators import (
+    NeighbourCounter,
+    fly_neighbour_counts_into,
+    shared_fitness_into,
+    survivors_cut,
+)
 from flylog.geometry import StereoRig
 
 
@@ -90,9 +95,7 @@ class Population:
         (:func:`~flylog.fly.operators.shared_fitness` with ``counts``; the fitness itself when
         ``counts`` is None), in index order, one generation older, then fresh flies whose
         ``xyz`` the caller writes. ``work`` is (2N,) float64 scratch. Returns ``keep``."""
-        if len(out) != len(self) or out is self or len(work) < 2 * len(self):
-            msg = "select_into needs another population of the same size and 2N scratch"
-            raise ValueError(msg)
+        self._check_select(out, work)
         share = counts is not None
         if counts is None:
             counts = np.empty(0, dtype=np.int64)
@@ -101,6 +104,34 @@ class Population:
             self.xyz, self.vision, self.stale, self.stamp_ns, self.age,
             out.xyz, out.fitness, out.vision, out.stale, out.stamp_ns, out.age,
         )  # fmt: skip
+
+    def select_sharing_into(
+        self,
+        out: Population,
+        keep: int,
+        coefficient: float,
+        work: np.ndarray,
+        consts: np.ndarray,
+        radius: float,
+        counter: NeighbourCounter,
+    ) -> int:
+        """:meth:`select_into` with the counts sharing needs worked out in the same call: each
+        valid fly's neighbours within ``radius`` px in the left image
+        (:func:`~flylog.fly.operators.fly_neighbour_counts_into`, ``consts`` from
+        :func:`~flylog.fly.fitness.rig_constants`, scratch from ``counter``; the counts are
+        left in ``counter.counts``)."""
+        self._check_select(out, work)
+        grid, ints, uv = counter.scratch(len(self))
+        return _select_sharing_kernel(
+            self.fitness, float(coefficient), keep, work, consts, float(radius), grid, ints,
+            uv, counter.counts, self.xyz, self.vision, self.stale, self.stamp_ns, self.age,
+            out.xyz, out.fitness, out.vision, out.stale, out.stamp_ns, out.age,
+        )  # fmt: skip
+
+    def _check_select(self, out: Population, work: np.ndarray) -> None:
+        if len(out) != len(self) or out is self or len(work) < 2 * len(self):
+            msg = "select_into needs another population of the same size and 2N scratch"
+            raise ValueError(msg)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -113,22 +144,49 @@ def _select_kernel(fitness, counts, coefficient, share, keep, work, xyz, vision,
         shared_fitness_into(fitness, counts, coefficient, work[n:], score)
     else:
         score[:] = fitness
+    return _cut_and_gather(score, keep, work, fitness, xyz, vision, stale, stamp, age, oxyz,
+                           ofit, ovis, ostale, ostamp, oage)  # fmt: skip
+
+
+@numba.njit(cache=True, nogil=True)
+def _select_sharing_kernel(fitness, coefficient, keep, work, k, radius, grid, ints, uv, counts,
+                           xyz, vision, stale, stamp, age, oxyz, ofit, ovis, ostale, ostamp,
+                           oage):  # fmt: skip  # pragma: no cover
+    """:meth:`Population.select_sharing_into`: neighbour counts, then :func:`_select_kernel`."""
+    fly_neighbour_counts_into(xyz, k, fitness, radius, grid, ints, uv, counts)
+    n = fitness.shape[0]
+    score = work[:n]
+    shared_fitness_into(fitness, counts, coefficient, work[n:], score)
+    return _cut_and_gather(score, keep, work, fitness, xyz, vision, stale, stamp, age, oxyz,
+                           ofit, ovis, ostale, ostamp, oage)  # fmt: skip
+
+
+@numba.njit(cache=True, nogil=True)
+def _cut_and_gather(score, keep, work, fitness, xyz, vision, stale, stamp, age, oxyz, ofit,
+                    ovis, ostale, ostamp, oage):  # fmt: skip  # pragma: no cover
+    """The selection cut on ``score`` (``work[n:]`` is scratch), then one gather: the taken
+    flies one generation older, the rest of ``out`` fresh (xyz left to the caller)."""
+    n = fitness.shape[0]
     everyone = keep >= n
     cut, ties = np.inf, 0
     if 0 < keep < n:
         cut, ties = survivors_cut(score, keep, work[n:])
+    # Every fly is written at the next free row, which moves on only if the fly is taken: no
+    # branch on the scores (they are fresh every generation, so it would mispredict half the
+    # time); the rows after the taken ones are overwritten below and by the caller.
     t = 0
     for i in range(n):
         s = score[i]
-        if everyone or s > cut or (s == cut and ties > 0):
-            ties -= s == cut
-            oxyz[t, 0], oxyz[t, 1], oxyz[t, 2] = xyz[i, 0], xyz[i, 1], xyz[i, 2]
-            ofit[t] = fitness[i]
-            ovis[t] = vision[i]
-            ostale[t] = stale[i]
-            ostamp[t] = stamp[i]
-            oage[t] = age[i] + 1
-            t += 1
+        tie = s == cut
+        take = everyone | (s > cut) | (tie & (ties > 0))
+        ties -= tie & take
+        oxyz[t, 0], oxyz[t, 1], oxyz[t, 2] = xyz[i, 0], xyz[i, 1], xyz[i, 2]
+        ofit[t] = fitness[i]
+        ovis[t] = vision[i]
+        ostale[t] = stale[i]
+        ostamp[t] = stamp[i]
+        oage[t] = age[i] + 1
+        t += take
     for r in range(t, n):
         ofit[r] = INVALID_FITNESS
         ovis[r] = INVALID_FITNESS

@@ -209,11 +209,9 @@ def _generation_figures(pair, depth, reading, rig) -> list[dict]:
 
 # The engine's kernels and operators, as cProfile names them (file, function).
 _PROFILED = [
-    ("fitness.py", "_fitness_serial"),
-    ("operators.py", "neighbour_counts_into"),
+    ("fusion.py", "score_into"),  # fitness of the stale flies or newcomers, then fusion
+    ("population.py", "_select_sharing_kernel"),  # neighbour counts, sharing, selection
     ("operators.py", "immigrants_and_children_into"),
-    ("population.py", "_select_kernel"),
-    ("fusion.py", "sonar_fuse_into"),
     ("engine.py", "step"),
 ]
 
@@ -222,7 +220,8 @@ def _profile_figures(pair, reading, rig) -> list[dict]:
     """Per-kernel time per generation in replay's rhythm (a new pair after motion every 10
     generations, sonar on), from cProfile: tottime, and the cumulative whole step. The
     newcomers' kernel draws and builds the sonar immigrants, the uniform ones and the
-    children."""
+    children. The same images every frame: caches and branch predictors fare better than on
+    a log (see the log-rhythm figure)."""
     engine = FlyEngine(EngineConfig(flies=5000), rig, np.random.default_rng(0))
     engine.set_images(pair)
     engine.set_sonar(reading)
@@ -296,6 +295,99 @@ def _compile_figures() -> list[dict]:
     ]
 
 
+LOG = Path(__file__).resolve().parents[2] / "bench-out" / "bench_replay_corridor_60s.mcap"
+
+
+def _log_calls(seconds: float) -> tuple[StereoRig, list[tuple[str, object]]]:
+    """The engine calls of ``flylog replay LOG --generations-per-frame 10`` over the first
+    ``seconds`` of the reference log, in order, recorded through the replay's own clock."""
+    from flylog.geometry import relative
+    from flylog.io.pairing import pair_stereo
+    from flylog.io.reader import open_log
+    from flylog.replay.clock import VirtualClock
+    from flylog.replay.config import ReplayConfig
+    from flylog.replay.inputs import SENSOR_TOPICS, replay_inputs
+    from flylog.replay.run import clock_config
+    from flylog.sensors import OdomReading
+
+    reader = open_log(LOG)
+    inputs = replay_inputs(reader, goal=None)
+    config = ReplayConfig(generations_per_frame=10)
+    calls: list[tuple[str, object]] = []
+
+    class Recorder:
+        pose = None
+
+        def deliver(self, record):
+            if isinstance(record, StereoPair):
+                calls.append(("images", record))
+            elif isinstance(record, SonarReading):
+                calls.append(("sonar", record))
+            elif isinstance(record, OdomReading):
+                if self.pose is not None:
+                    calls.append(("motion", relative(self.pose, record.pose)))
+                self.pose = record.pose
+
+        def generation(self, keep_published=True):
+            evaluations = 5000 if calls[-1][0] == "images" else 2500
+            calls.append(("step", None))
+            return evaluations, config.generation_cost_ns(evaluations)
+
+        def publish(self, t_ns):
+            calls.append(("publish", None))
+
+        def tick(self, name, t_ns):
+            pass
+
+    clock = VirtualClock(Recorder(), clock_config(config, inputs.frame_period_ns))
+    end = inputs.start_ns + round(seconds * 1e9)
+    for message in pair_stereo(reader.messages(SENSOR_TOPICS)):
+        if message.log_time_ns > end:
+            break
+        clock.feed(message.value)
+    clock.finish(end)
+    return inputs.rig, calls
+
+
+def _log_rhythm_figures() -> list[dict]:
+    """Issue 4's rhythm on real data: the engine's CPU time per generation (this thread's,
+    so other processes' load counts less) over the first 10 s of the reference log, every
+    call the replay makes (images, sonar, odometry, steps, a snapshot per generation)."""
+    if not LOG.exists():
+        return []
+    rig, calls = _log_calls(10.0)
+
+    def replay() -> tuple[float, int]:
+        engine = FlyEngine(EngineConfig(), rig, np.random.default_rng(0))
+        steps = 0
+        t0 = time.thread_time()
+        for kind, value in calls:
+            if kind == "images":
+                engine.set_images(value)
+            elif kind == "sonar":
+                engine.set_sonar(value)
+            elif kind == "motion":
+                engine.apply_motion(value)
+            elif kind == "step":
+                engine.step()
+                steps += 1
+            else:
+                _ = engine.population
+        return time.thread_time() - t0, steps
+
+    replay()  # compile, warm up
+    seconds, steps = min(replay() for _ in range(3))
+    return [
+        {
+            "name": "engine CPU time per generation, reference log's rhythm (10 s)",
+            "value": seconds / steps * 1e3,
+            "unit": "ms/gen",
+            "note": f"{steps} generations; the 60 s replay runs ~9010: "
+            f"{seconds / steps * 9010:.1f} s of engine",
+        }
+    ]
+
+
 def run(out_dir: Path) -> list[dict]:
     rig = StereoRig()
     pair, depth, reading = _frame(rig)
@@ -303,5 +395,6 @@ def run(out_dir: Path) -> list[dict]:
         _fitness_figures(pair, rig)
         + _generation_figures(pair, depth, reading, rig)
         + _profile_figures(pair, reading, rig)
+        + _log_rhythm_figures()
         + _compile_figures()
     )

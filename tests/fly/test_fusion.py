@@ -203,3 +203,54 @@ def test_fuse_into_writes_only_the_given_flies():
     untouched = np.ones(300, dtype=bool)
     untouched[index] = False
     assert (out[untouched] == 7.0).all()
+
+
+def test_move_in_place_equals_moved_bit_for_bit():
+    from flylog.fly.fusion import move_by_odometry
+
+    rng = np.random.default_rng(3)
+    xyz = rng.uniform(-5, 5, (1000, 3))
+    for step in (Pose2D(0.02, -0.001, 0.003), Pose2D(-1.5, 2.0, -3.1), Pose2D(0.0, 0.0, 0.0)):
+        expected = moved_by_odometry(xyz, step)
+        move_by_odometry(xyz, step)
+        np.testing.assert_array_equal(xyz, expected)
+
+
+@pytest.mark.parametrize("with_sonar", [False, True])
+def test_score_kernel_equals_fitness_then_fusion(with_sonar):
+    from flylog.fly.fitness import INVALID_FITNESS, fitness_numpy, rig_constants
+    from flylog.fly.fusion import score_into
+    from flylog.fly.population import random_flies
+
+    rng = np.random.default_rng(4)
+    rig = StereoRig(width=64, height=48, focal_px=50.0)
+    left = rng.integers(0, 256, (48, 64, 3), dtype=np.uint8)
+    right = np.roll(left, -3, axis=1)
+    xyz = random_flies(rng, rig, 400, d_min=0.5, d_max=5.0, margin=3)
+    # flies on the sonar arcs: some are confirmed
+    r = reading([np.nan, 1.0, np.nan, 1.2, np.nan, np.nan])
+    xyz[:100, :2] = sonar_immigrants(rng, r, 100, RIG, tolerance=0.1, margin=3)[:, :2][
+        rng.integers(0, 10, 100)
+    ]  # fmt: skip
+    index = np.arange(50, 400, 2)
+    fuse = np.arange(400)
+    vision = np.full(400, INVALID_FITNESS)
+    vision[1::2] = rng.random(200)  # evaluated before
+    stale, stamp = np.ones(400, dtype=bool), np.full(400, -1, dtype=np.int64)
+    fitness = np.full(400, 9.0)
+    expected_vision = vision.copy()
+    expected_vision[index] = fitness_numpy(left, right, xyz[index], rig, 7, 1.0)
+    sonars = fired_sonars(r) if with_sonar else np.empty((0, 5))
+    if with_sonar:
+        expected = sonar_fused(expected_vision, xyz, r, bonus=0.5, tolerance=0.1, use_numba=False)
+        assert (expected != expected_vision).sum() > 3  # some flies confirmed
+    else:
+        expected = expected_vision
+    score_into(
+        left.reshape(48, 64 * 3), right.reshape(48, 64 * 3), 3, xyz, index, rig_constants(rig),
+        7, 1.0, 42, vision, stale, stamp, sonars, math.cos(r.half_cone), 0.1, 0.5, fuse, fitness,
+    )  # fmt: skip
+    np.testing.assert_array_equal(vision, expected_vision)
+    np.testing.assert_array_equal(fitness, expected)
+    assert not stale[index].any() and (stamp[index] == 42).all()
+    assert stale[1:50:2].all() and (stamp[1:50:2] == -1).all()

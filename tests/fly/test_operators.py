@@ -279,3 +279,24 @@ def test_offspring_written_into_out(use_numba):
     )  # fmt: skip
     np.testing.assert_array_equal(out[5:55], expected)
     assert np.shares_memory(got, out) and (out[:5] == 0).all() and (out[55:] == 0).all()
+
+
+def test_fly_counts_equal_the_reference_on_projected_flies():
+    from flylog.fly.fitness import INVALID_FITNESS, rig_constants
+    from flylog.fly.operators import fly_neighbour_counts_into
+
+    rng = np.random.default_rng(11)
+    xyz = random_flies(rng, RIG, 3000, d_min=0.5, d_max=20.0, margin=3)
+    # clusters, as converged flies sit on surfaces: many pairs in the same cells
+    xyz[:1000] = xyz[rng.integers(1000, 3000, 1000)] + rng.normal(0, 0.002, (1000, 3))
+    fitness = rng.random(3000)
+    fitness[rng.random(3000) < 0.1] = INVALID_FITNESS
+    radius = sharing_radius(RIG.n_pixels, 3000)
+    u, _, v, _ = RIG.project(xyz)
+    expected = neighbour_counts_numpy(u, v, fitness > INVALID_FITNESS, radius)
+    assert expected.max() > 5  # crowded flies: the test can fail
+    counter = NeighbourCounter()
+    counts = np.full(3000, -7, dtype=np.int64)
+    fly_neighbour_counts_into(xyz, rig_constants(RIG), fitness, radius, *counter.scratch(3000),
+                              counts)  # fmt: skip
+    np.testing.assert_array_equal(counts, expected)

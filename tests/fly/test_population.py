@@ -58,3 +58,30 @@ def test_select_into_equals_selection_then_survivors_then(sharing):
         np.testing.assert_array_equal(getattr(out, field), getattr(expected, field), field)
     with pytest.raises(ValueError, match="same size"):
         pop.select_into(pop, 120, counts, 0.1, np.empty(400))
+
+
+def test_select_sharing_into_counts_then_selects_as_select_into():
+    from flylog.fly.fitness import rig_constants
+    from flylog.fly.operators import NeighbourCounter, neighbour_counts_numpy
+    from flylog.fly.population import random_flies, sharing_radius
+    from flylog.geometry import StereoRig
+
+    rig = StereoRig(width=64, height=48, focal_px=50.0)
+    rng = np.random.default_rng(2)
+    pop = _population(rng, 300)
+    pop.xyz[:] = random_flies(rng, rig, 300, d_min=0.5, d_max=20.0, margin=3)
+    pop.fitness[:] = np.round(rng.random(300), 1)  # ties
+    pop.fitness[rng.random(300) < 0.1] = INVALID_FITNESS
+    radius = sharing_radius(rig.n_pixels, 300)
+    u, _, v, _ = rig.project(pop.xyz)
+    counts = neighbour_counts_numpy(u, v, pop.fitness > INVALID_FITNESS, radius)
+    assert counts.max() > 0
+    expected, got = _population(rng, 300), _population(rng, 300)
+    assert pop.select_into(expected, 150, counts, 0.1, np.empty(600)) == 150
+    counter = NeighbourCounter()
+    k = pop.select_sharing_into(got, 150, 0.1, np.empty(600), rig_constants(rig), radius, counter)
+    assert k == 150
+    np.testing.assert_array_equal(counter.counts, counts)
+    for field in ("fitness", "vision", "stale", "stamp_ns", "age"):
+        np.testing.assert_array_equal(getattr(got, field), getattr(expected, field), field)
+    np.testing.assert_array_equal(got.xyz[:150], expected.xyz[:150])
