@@ -33,10 +33,9 @@ from flylog.fly.fusion import (
     sonar_fused,
     sonar_immigrants,
 )
+from flylog.fly.neighbours import NeighbourCounter, neighbour_counts_numpy
 from flylog.fly.operators import (
-    NeighbourCounter,
     immigrants_and_children_into,
-    neighbour_counts_numpy,
     newcomer_constants,
     newcomers_numpy,
     shared_fitness,

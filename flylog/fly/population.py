@@ -9,12 +9,8 @@ import numba
 import numpy as np
 
 from flylog.fly.fitness import INVALID_FITNESS
-from flylog.fly.operators import (
-    NeighbourCounter,
-    fly_neighbour_counts_into,
-    shared_fitness_into,
-    survivors_cut,
-)
+from flylog.fly.neighbours import NeighbourCounter, fly_neighbour_counts_into
+from flylog.fly.operators import shared_fitness_into, survivors_cut
 from flylog.geometry import StereoRig
 
 
@@ -117,7 +113,7 @@ class Population:
     ) -> int:
         """:meth:`select_into` with the counts sharing needs worked out in the same call: each
         valid fly's neighbours within ``radius`` px in the left image
-        (:func:`~flylog.fly.operators.fly_neighbour_counts_into`, ``consts`` from
+        (:func:`~flylog.fly.neighbours.fly_neighbour_counts_into`, ``consts`` from
         :func:`~flylog.fly.fitness.rig_constants`, scratch from ``counter``; the counts are
         left in ``counter.counts``)."""
         self._check_select(out, work)

@@ -5,14 +5,16 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flylog.fly.operators import (
+from flylog.fly.neighbours import (
     NeighbourCounter,
-    crossover2,
-    crossover3,
     grid_buffer_size,
-    mutated,
     neighbour_counts_numba,
     neighbour_counts_numpy,
+)
+from flylog.fly.operators import (
+    crossover2,
+    crossover3,
+    mutated,
     newcomer_constants,
     newcomers_into,
     newcomers_numpy,
@@ -283,7 +285,7 @@ def test_offspring_written_into_out(use_numba):
 
 def test_fly_counts_equal_the_reference_on_projected_flies():
     from flylog.fly.fitness import INVALID_FITNESS, rig_constants
-    from flylog.fly.operators import fly_neighbour_counts_into
+    from flylog.fly.neighbours import fly_neighbour_counts_into
 
     rng = np.random.default_rng(11)
     xyz = random_flies(rng, RIG, 3000, d_min=0.5, d_max=20.0, margin=3)

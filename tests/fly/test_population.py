@@ -62,7 +62,7 @@ def test_select_into_equals_selection_then_survivors_then(sharing):
 
 def test_select_sharing_into_counts_then_selects_as_select_into():
     from flylog.fly.fitness import rig_constants
-    from flylog.fly.operators import NeighbourCounter, neighbour_counts_numpy
+    from flylog.fly.neighbours import NeighbourCounter, neighbour_counts_numpy
     from flylog.fly.population import random_flies, sharing_radius
     from flylog.geometry import StereoRig
 
