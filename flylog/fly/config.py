@@ -71,6 +71,35 @@ class EngineConfig:
     sonar_immigration_fraction: float = param(
         0.5, help="share of the immigrants placed on sonar arcs", min=0.0, max=1.0
     )
+    scouting: bool = param(
+        True,
+        help="while turning, place some immigrants where new content enters the view, each at "
+        "the best of scout_candidates depths (flylog.fly.scouts)",
+    )
+    scout_fraction: float = param(
+        0.5,
+        help="share of the uniform immigrants (those the sonar does not place) that scout "
+        "while turning",
+        min=0.0,
+        max=1.0,
+    )
+    scout_candidates: int = param(
+        16, help="K: depths tried per scout, each a fitness evaluation", min=1, max=256
+    )
+    scout_strip_frames: int = param(
+        2,
+        help="the scouted strip is what the turn of this many image intervals brought in",
+        unit="frames",
+        min=1,
+        max=100,
+    )
+    scout_min_shift: float = param(
+        0.5,
+        help="scout only while the turn moves the image edge at least this much per frame "
+        "(over the strip's frames)",
+        unit="px",
+        min=0.0,
+    )
     proprioception: bool = param(True, help="move the flies by the inverse odometry increment")
     backend: Backend = param(Backend.NUMBA, help="kernel implementation (numba or numpy)")
 
@@ -89,6 +118,13 @@ class EngineConfig:
     def survivors(self) -> int:
         """How many flies elitist selection keeps."""
         return max(1, min(self.flies - 1, round(self.elite_fraction * self.flies)))
+
+    @property
+    def max_evaluations(self) -> int:
+        """The most fitness evaluations one generation can make: every fly (new images make
+        all stale), the newcomers, and K candidates for each immigrant that may scout."""
+        scouts = self.immigrants * self.scout_candidates if self.scouting else 0
+        return self.flies + (self.flies - self.survivors) + scouts
 
     @property
     def immigrants(self) -> int:

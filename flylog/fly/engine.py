@@ -46,6 +46,7 @@ from flylog.fly.population import (
     random_flies,
     sharing_radius,
 )
+from flylog.fly.scouts import Scouting
 from flylog.geometry import Pose2D, StereoRig
 from flylog.sensors import SonarReading, StereoPair
 
@@ -116,6 +117,7 @@ class FlyEngine:
         # fitness is recomputed only when its vision is, unless the reading changes.
         self._fused_with: SonarReading | object | None = None  # _MOVED after a motion
         self._generation = 0
+        self._scouts = Scouting(config, rig, self._margin)  # see step()
 
     # --- inputs -----------------------------------------------------------------------------
 
@@ -137,6 +139,7 @@ class FlyEngine:
             channels,
         )
         self._pop.stale[:] = True
+        self._scouts.new_images()
 
     def set_sonar(self, reading: SonarReading) -> None:
         """Use this sonar reading (in base_link) for fusion until the next one."""
@@ -153,6 +156,7 @@ class FlyEngine:
         images taken before the motion: it stays valid until those images are replaced
         (scoring the moved fly on the same old images would mix two poses). Only the sonar
         term, which depends on where the fly is now relative to the cones, is recomputed."""
+        self._scouts.turned(increment.theta)  # scouting reads the turn, proprioception or not
         if not self.config.proprioception:
             return
         if self._numba:
@@ -226,6 +230,12 @@ class FlyEngine:
                 d_min=cfg.d_min, d_max=cfg.d_max, margin=self._margin,
             )  # fmt: skip
             pop.survivors_then(keep, np.concatenate([children, from_sonar, uniform]), out=nxt)
+        # Scouting immigrants (flylog.fly.scouts): while turning, the last uniform immigrants
+        # move to where new content enters the view; their candidates' evaluations are
+        # charged here, the chosen flies are scored with the other newcomers.
+        evaluations += self._scouts.place(
+            self._rng, nxt.xyz, n_immigrants, n_sonar, self._left, self._right
+        )
         self._pop, self._spare = nxt, pop
         evaluations += self._score(self._newcomers)
         self._generation += 1

@@ -84,9 +84,8 @@ def clock_config(config: ReplayConfig, frame_period_ns: int) -> ClockConfig:
             PLANNER_TICK: round(1e9 / config.planner.tick_rate),
             SNAPSHOT_TICK: round(1e9 / config.snapshot_rate),
         },
-        # a fly generation scores at most every fly (new images make all stale) and its
-        # newcomers; SGBM's cost is fixed
-        max_generation_cost_ns=config.generation_cost_ns(2 * config.engine.flies),
+        # SGBM's cost is fixed
+        max_generation_cost_ns=config.generation_cost_ns(config.engine.max_evaluations),
     )
 
 

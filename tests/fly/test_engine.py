@@ -199,7 +199,8 @@ def test_proprioception_switch(small_frame):
 
 def test_motion_recomputes_the_sonar_term_and_new_images_every_fitness(sonar_scene):
     pair, reading = sonar_scene
-    cfg = EngineConfig(flies=1000, sonar_immigration=False)
+    # (no scouts: their candidates would add evaluations after the turn below)
+    cfg = EngineConfig(flies=1000, sonar_immigration=False, scouting=False)
     engine, stats = run(cfg, (pair,), sonar=reading, generations=3)
     survivors, newcomers = stats[-1].survivors, cfg.flies - stats[-1].survivors
     assert stats[-1].evaluations == newcomers

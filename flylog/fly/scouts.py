@@ -1,0 +1,220 @@
+"""Scouting immigrants: while the robot turns, a share of the uniform immigrants go where new
+scene content enters the view, each at the best of K candidate depths (issue 5, detection
+latency).
+
+Turning on the spot, the scene enters the left image at one edge (turning left, at the left
+edge; right, at the right edge), a strip as wide as the turn sweeps. Uniform immigrants land
+on that strip rarely and at the right depth more rarely still, and the children of flies
+elsewhere seldom move there, so a new obstacle waits frames for flies. A scout is a pixel
+drawn uniformly in the strip with K disparities spread over the searched range (one per
+K-th of it, stratified); the best of the K by vision fitness enters the population. Every
+candidate evaluation is returned to the caller, which charges it to the compute budget.
+
+The strip is what the odometry's yaw over the last ``scout_strip_frames`` image intervals
+brought into view (a pure rotation about the robot's vertical axis; the cameras' offset
+from it is neglected). Driving straight, nothing enters at an edge (the view expands from
+its centre), so below ``scout_min_shift`` pixels of edge motion per frame nobody scouts and
+the immigrants stay uniform.
+
+The random stream of one call, both implementations: per scout, U for the column, U for the
+row, then K U for the offsets of its disparities in their K-ths.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from flylog.fly.config import Backend, EngineConfig
+from flylog.fly.fitness import fitness_numpy, fitness_serial, rig_constants
+from flylog.fly.operators import newcomer_constants
+from flylog.geometry import StereoRig
+
+
+def entering_strip(
+    rig: StereoRig, yaw: float, margin: int, min_width: float = 1.0
+) -> tuple[float, float, bool]:
+    """(c0, c1, in_right): the columns [c0, c1] (``margin`` px inside the border) where a
+    turn by ``yaw`` rad (positive: to the left) brought content into view, at least
+    ``min_width`` px wide; c1 < c0 for no turn. Turning right, content enters both images
+    at their right edge: the strip is in the left image. Turning left, it enters at the left
+    edge, where the left image's pixels are not yet in the right one: the strip is in the
+    right image (``in_right``), the left column being c + disparity. A bearing φ (left
+    positive) is at column cx − f·tan φ."""
+    if yaw == 0.0:
+        return 0.0, -1.0, False
+    f, cx = rig.focal_px, rig.cx
+    lo, hi = float(margin), float(rig.width - 1 - margin)
+    if yaw > 0:
+        edge = math.atan2(cx, f)
+        inner = cx - f * math.tan(max(edge - yaw, -edge))
+        return lo, min(hi, max(inner, lo + min_width)), True
+    edge = math.atan2(rig.width - 1 - cx, f)
+    inner = cx + f * math.tan(max(edge + yaw, -edge))
+    return max(lo, min(inner, hi - min_width)), hi, False
+
+
+def scout_candidates_numpy(
+    rng: np.random.Generator,
+    k: np.ndarray,
+    strip: tuple[float, float, bool],
+    n: int,
+    n_depths: int,
+) -> np.ndarray:
+    """Reference: (n·K, 3) candidates, scout i's K in rows i·K…i·K+K−1, for a ``strip``
+    from :func:`entering_strip` (``k`` from :func:`~flylog.fly.operators.newcomer_constants`).
+    A scout's disparities stay where its other projection is inside the image."""
+    f, cx, cy, half_b, mount_x, mount_h = k[0], k[1], k[2], k[3], k[4], k[5]
+    lo, hi, margin, u_hi, v_lo, v_hi = k[6], k[7], k[8], k[9], k[10], k[11]
+    c0, c1, in_right = strip
+    w = rng.random((n, 2 + n_depths))
+    c = c0 + (c1 - c0) * w[:, 0]
+    v = v_lo + (v_hi - v_lo) * w[:, 1]
+    top = np.maximum(np.minimum(hi, (u_hi - c) if in_right else (c - margin)), lo)
+    strata = (np.arange(n_depths)[None, :] + w[:, 2:]) / n_depths
+    disparity = lo + (top - lo)[:, None] * strata
+    z = (f * (2.0 * half_b)) / disparity
+    u = (c[:, None] + disparity) if in_right else c[:, None]
+    out = np.stack(
+        [mount_x + z, half_b - (u - cx) * z / f, mount_h - (v[:, None] - cy) * z / f], axis=-1
+    )
+    return out.reshape(n * n_depths, 3)
+
+
+@numba.njit(cache=True, nogil=True)
+def scout_candidates_into(rng, k, c0, c1, in_right, n_depths, out):  # pragma: no cover
+    """Same candidates as :func:`scout_candidates_numpy` (n = len(out) // K), into ``out``."""
+    f, cx, cy, half_b, mount_x, mount_h = k[0], k[1], k[2], k[3], k[4], k[5]
+    lo, hi, margin, u_hi, v_lo, v_hi = k[6], k[7], k[8], k[9], k[10], k[11]
+    fb = f * (2.0 * half_b)
+    for i in range(out.shape[0] // n_depths):
+        c = c0 + (c1 - c0) * rng.random()
+        v = v_lo + (v_hi - v_lo) * rng.random()
+        top = max(min(hi, (u_hi - c) if in_right else (c - margin)), lo)
+        for j in range(n_depths):
+            disparity = lo + (top - lo) * ((j + rng.random()) / n_depths)
+            z = fb / disparity
+            u = c + disparity if in_right else c
+            r = i * n_depths + j
+            out[r, 0] = mount_x + z
+            out[r, 1] = half_b - (u - cx) * z / f
+            out[r, 2] = mount_h - (v - cy) * z / f
+
+
+def best_candidates_numpy(candidates: np.ndarray, fitness: np.ndarray, n_depths: int) -> np.ndarray:
+    """Reference: (n, 3) each scout's fittest candidate (the first of equals)."""
+    n = len(fitness) // n_depths
+    best = fitness.reshape(n, n_depths).argmax(axis=1)
+    return candidates.reshape(n, n_depths, 3)[np.arange(n), best]
+
+
+@numba.njit(cache=True, nogil=True)
+def best_candidates_into(candidates, fitness, n_depths, out):  # pragma: no cover - compiled
+    """Same flies as :func:`best_candidates_numpy`, into ``out`` (n, 3)."""
+    for i in range(out.shape[0]):
+        best = i * n_depths
+        for r in range(best + 1, best + n_depths):
+            if fitness[r] > fitness[best]:
+                best = r
+        for j in range(3):
+            out[i, j] = candidates[best, j]
+
+
+@numba.njit(cache=True, nogil=True)
+def scouts_into(rng, k, c0, c1, in_right, n_depths, lrow, rrow, channels, rig_k, window, guard,
+                candidates, index, fitness, out):  # fmt: skip  # pragma: no cover - compiled
+    """One generation's scouts in one call (numba types the Generator once): candidates
+    (:func:`scout_candidates_into`), their fitness on (H, W·C) uint8 rows (serial: a few
+    hundred flies), the best of each scout into ``out``. ``candidates``, ``index``
+    (0…n·K−1) and ``fitness`` are n·K long."""
+    scout_candidates_into(rng, k, c0, c1, in_right, n_depths, candidates)
+    fitness_serial(lrow, rrow, channels, candidates, index, rig_k, window, guard, fitness)
+    best_candidates_into(candidates, fitness, n_depths, out)
+
+
+class Scouting:
+    """The engine's scouts: remembers the odometry's yaw per image interval, and places the
+    scouts of one generation (:meth:`place`)."""
+
+    def __init__(self, config: EngineConfig, rig: StereoRig, margin: int) -> None:
+        self._on = config.scouting and config.scout_fraction > 0
+        self._fraction = config.scout_fraction
+        self._depths = config.scout_candidates
+        self._min_shift = config.scout_min_shift
+        self._numba = config.backend is Backend.NUMBA
+        self.rig = rig
+        self._margin = margin
+        self._window, self._guard = config.window, float(config.guard)
+        self._k = newcomer_constants(rig, config.d_min, config.d_max, margin)
+        self._rig_k = rig_constants(rig)
+        self._yaw = 0.0  # since the newest images
+        self._frames = np.zeros(config.scout_strip_frames)  # yaw of the last image intervals
+        self._strip = (0.0, -1.0, False)  # entering_strip(); empty while not turning enough
+        self._candidates = np.empty((0, 3))
+        self._fitness = np.empty(0)
+        self._index = np.empty(0, dtype=np.int64)
+
+    @property
+    def strip(self) -> tuple[float, float, bool]:
+        """Where scouts go now: :func:`entering_strip` (c1 < c0: nowhere)."""
+        return self._strip
+
+    def turned(self, yaw: float) -> None:
+        """The robot turned by ``yaw`` rad (an odometry increment's theta)."""
+        self._yaw += yaw
+
+    def new_images(self) -> None:
+        """New images arrived: the yaw since the last ones is one more image interval."""
+        self._frames = np.roll(self._frames, 1)
+        self._frames[0], self._yaw = self._yaw, 0.0
+        yaw = float(self._frames.sum())
+        # the image moves fastest at the edge: f·sec²(half fov) px per rad
+        edge_px = abs(yaw) * self.rig.focal_px / math.cos(self.rig.half_fov) ** 2
+        if not self._on or edge_px < self._min_shift * len(self._frames):
+            self._strip = (0.0, -1.0, False)
+        else:
+            self._strip = entering_strip(self.rig, yaw, self._margin)
+
+    def count(self, n_immigrants: int, n_sonar: int) -> int:
+        """How many of ``n_immigrants`` (``n_sonar`` of them from the sonar) scout now: the
+        configured share of the uniform ones (the rest keep exploring the whole image);
+        none while not turning."""
+        if self._strip[1] < self._strip[0]:
+            return 0
+        return round(self._fraction * (n_immigrants - n_sonar))
+
+    def place(
+        self,
+        rng: np.random.Generator,
+        xyz: np.ndarray,
+        n_immigrants: int,
+        n_sonar: int,
+        left: np.ndarray,
+        right: np.ndarray,
+    ) -> int:
+        """Move the last :meth:`count` flies of ``xyz`` (uniform immigrants, after the sonar
+        ones) to scouts' places; returns the fitness evaluations made, K per scout.
+        ``left``, ``right``: (H, W, C) uint8 planes of the newest images."""
+        n = self.count(n_immigrants, n_sonar)
+        if n == 0:
+            return 0
+        k = self._depths
+        if self._numba:
+            if len(self._candidates) != n * k:
+                self._candidates = np.empty((n * k, 3))
+                self._fitness = np.empty(n * k)
+                self._index = np.arange(n * k, dtype=np.int64)
+            c0, c1, in_right = self._strip
+            height, width, channels = left.shape
+            scouts_into(
+                rng, self._k, c0, c1, in_right, k, left.reshape(height, width * channels),
+                right.reshape(height, width * channels), channels, self._rig_k, self._window,
+                self._guard, self._candidates, self._index, self._fitness, xyz[len(xyz) - n :],
+            )  # fmt: skip
+        else:
+            candidates = scout_candidates_numpy(rng, self._k, self._strip, n, k)
+            fitness = fitness_numpy(left, right, candidates, self.rig, self._window, self._guard)
+            xyz[len(xyz) - n :] = best_candidates_numpy(candidates, fitness, k)
+        return n * k
