@@ -8,11 +8,13 @@ from __future__ import annotations
 import dataclasses
 import multiprocessing
 import os
+from collections.abc import Mapping
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
 
+from flylog.config import replace_dotted
 from flylog.experiments import plots
 from flylog.experiments.common import (
     Column,
@@ -35,6 +37,7 @@ from flylog.experiments.runs import (
     true_poses_at,
     with_flies,
 )
+from flylog.planner import PlannerConfig
 from flylog.replay.config import ReplayConfig
 
 NAME = "closed-loop"
@@ -81,12 +84,20 @@ def describe_obstacle(scene, k: int) -> str:
 
 
 def run_closed_loop(
-    out_dir: Path, options: ExperimentOptions, *, on_progress: Progress | None = None
+    out_dir: Path,
+    options: ExperimentOptions,
+    *,
+    on_progress: Progress | None = None,
+    planner: Mapping[str, object] | None = None,
 ) -> ExperimentResult:
-    """Drive ``options.seeds`` runs on each scene; write ``out_dir/closed-loop/``."""
+    """Drive ``options.seeds`` runs on each scene; write ``out_dir/closed-loop/``.
+
+    ``planner``: overrides of the planner's defaults (``{"obstacle_weight": 1.0}``: the
+    paper's Dirichlet obstacles), applied to every run and listed in the set-up."""
     from flylog.scene.load import load_scene
 
     here = experiment_dir(out_dir, NAME)
+    overrides = {f"planner.{key}": value for key, value in (planner or {}).items()}
     steps = Steps(options.seeds * len(SCENES), on_progress)
     scenes = {name: load_scene(options.scene_path(name)) for name in SCENES}
     jobs = [(name, seed) for name in SCENES for seed in range(options.seeds)]
@@ -97,19 +108,19 @@ def run_closed_loop(
         # spawn, not fork: a forked child inherits the parent's threads' locks (pytest, I/O)
         context = multiprocessing.get_context("spawn")
         with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-            futures = {pool.submit(_one_run, here, options, *job): job for job in jobs}
+            futures = {pool.submit(_one_run, here, options, overrides, *job): job for job in jobs}
             for future in as_completed(futures):
                 done[futures[future]] = future.result()
                 steps.step()
     else:
         for job in jobs:
-            done[job] = _one_run(here, options, *job)
+            done[job] = _one_run(here, options, overrides, *job)
             steps.step()
     runs = [done[job][0] for job in jobs]
     drawn: dict[str, list[_Drawn]] = {
         s: [done[(s, k)][1] for k in range(options.seeds)] for s in SCENES
     }
-    planner = with_flies(ReplayConfig(), options).planner
+    used = _config(options, 0, overrides).planner
     table = _table(runs, options.seeds)
     figures = _figures(here, scenes, drawn)
     findings = _findings(runs, table)
@@ -118,24 +129,16 @@ def run_closed_loop(
         f"{options.resolution[1]} pixels, closed loop (`flylog simulate --drive planner`), "
         "asynchronous engine and planner with the defaults"
         + (f", {options.flies} flies" if options.flies else " (5000 flies)"),
-        "each run ends when the planner reports the goal reached, or at the scene's "
-        "duration" + (f" (here {options.duration:g} s)" if options.duration is not None else ""),
+        "each run ends when the planner reports the goal reached, or after "
+        f"{options.duration_or(TIME_LIMIT):g} s",
         f"{options.seeds} seeds per scene (0…{options.seeds - 1}): the seed drives the "
         "trajectory and sonar noise and the engine; mean ± standard deviation over seeds",
         "goal reached: the true position within 0.2 m of the goal (metrics.goal_tolerance); "
         "the planner stops when its ODOMETRIC position is within "
-        f"{planner.goal_tolerance:g} m of the goal (planner.goal_tolerance), so the two "
+        f"{used.goal_tolerance:g} m of the goal (planner.goal_tolerance), so the two "
         "differ by the odometric drift at the end (its own column); collisions: entries of "
         "the robot's disc into an obstacle's footprint (true trajectory)",
-        f"planner: obstacles inflated by robot_radius {planner.robot_radius:g} m + "
-        f"inflation_margin {planner.inflation_margin:g} m; forward speed scaled down within "
-        f"{planner.obstacle_slowdown:g} m of clearance (not below "
-        f"{planner.min_speed_fraction:g} of the maximum) and within {planner.goal_slowdown:g} m "
-        f"of the goal; turns in place beyond a heading error of {planner.turn_in_place_deg:g}°; "
-        f"remembered obstacle cells within {planner.clear_min_range:g} m are never cleared as "
-        f"seen free; each tick relaxes until a sweep changes U by at most "
-        f"{planner.relax_tolerance:g} (at most {planner.max_sweeps_per_tick} sweeps); "
-        f"grid {planner.extent:g} m a side, centred between start and goal",
+        _describe_planner(used, overrides),
     ]
     return finish_experiment(
         NAME,
@@ -151,13 +154,48 @@ def run_closed_loop(
     )
 
 
-def _one_run(here: Path, options: ExperimentOptions, name: str, seed: int) -> tuple[dict, _Drawn]:
+def _config(options: ExperimentOptions, seed: int, overrides: Mapping[str, object]):
+    return replace_dotted(with_flies(ReplayConfig(seed=seed), options), overrides)
+
+
+def _describe_planner(planner: PlannerConfig, overrides: Mapping[str, object]) -> str:
+    if planner.obstacle_weight == 1.0:
+        field = "Dirichlet obstacles (obstacle_weight 1, the paper's form)"
+    else:
+        field = (
+            f"obstacles weighted {planner.obstacle_weight:g} among a free cell's neighbours "
+            "(a Robin boundary; 1 would be the paper's Dirichlet obstacles)"
+        )
+    steer = (
+        f"steers at the point {planner.lookahead:g} m down the descent path"
+        if planner.lookahead > 0
+        else "steers along −∇U at the robot"
+    )
+    changed = ", ".join(f"{k} = {v}" for k, v in overrides.items())
+    return (
+        f"planner: U = 1 on the border, 0 at the goal, {field}; obstacles inflated by "
+        f"robot_radius {planner.robot_radius:g} m + inflation_margin "
+        f"{planner.inflation_margin:g} m; {steer}, at most {planner.max_angular_speed:g} "
+        f"rad/s; forward speed scaled down within {planner.obstacle_slowdown:g} m of "
+        f"clearance (not below {planner.min_speed_fraction:g} of the maximum) and within "
+        f"{planner.goal_slowdown:g} m of the goal; turns in place beyond a heading error of "
+        f"{planner.turn_in_place_deg:g}°; remembered obstacle cells within "
+        f"{planner.clear_min_range:g} m are never cleared as seen free; each tick relaxes "
+        f"until a sweep changes U by at most {planner.relax_tolerance:g} (at most "
+        f"{planner.max_sweeps_per_tick} sweeps); grid {planner.extent:g} m a side, centred "
+        "between start and goal" + (f" (overridden here: {changed})" if changed else "")
+    )
+
+
+def _one_run(
+    here: Path, options: ExperimentOptions, overrides: Mapping[str, object], name: str, seed: int
+) -> tuple[dict, _Drawn]:
     """Simulate one closed-loop run of ``name`` with ``seed``, score it; its row and what the
     figures need (the log is deleted unless kept)."""
     from flylog.scene.load import load_scene
 
     scene = load_scene(options.scene_path(name))
-    config = with_flies(ReplayConfig(seed=seed), options)
+    config = _config(options, seed, overrides)
     log = here / "runs" / f"{name}_s{seed}.mcap"
     simulate_scene(options, name, seed, log, options.duration_or(TIME_LIMIT), drive_with=config)
     scored = score(log, log)

@@ -82,6 +82,21 @@ class PlannerConfig:
         min=0.0,
         max=1.0,
     )
+    obstacle_weight: float = param(
+        1.0,
+        help="weight of an obstacle cell among a free cell's four neighbours in the "
+        "relaxation: 1 = Dirichlet obstacles (U = 1 on them, the paper's form); below 1 a "
+        "Robin boundary (towards reflecting as it falls) under which U no longer decays "
+        "exponentially along a corridor, so a narrow passage to the goal is not outweighed "
+        "by a wide detour (U stays harmonic: no local minima; border 1 and goal 0 remain). "
+        "At 1 the corridor scene's start has −∇U pointing backwards, out of the corridor; "
+        "0.3 still does, 0.1 points it forwards (|∇U| 7e-6/m), 0.03 60× more steeply. The "
+        "default stays the paper's: in closed loop 0.03 let the robot graze and hit boxes "
+        "on clutter (it hugs the inflated skin), and did not fix the corridor's other "
+        "failures (phantom obstacles, wandering outside)",
+        min=0.0,
+        max=1.0,
+    )
     clear_free_cells: bool = param(
         True,
         help="forget obstacle cells that the cameras see as free (in view, not occluded)",
@@ -146,6 +161,15 @@ class PlannerConfig:
         min=0.0,
         max=1.0,
     )
+    lookahead: float = param(
+        0.0,
+        help="steer at the point this far down the descent path (followed from the robot in "
+        "path_step steps) instead of along −∇U at the robot: turns smoothly through the "
+        "field's bends and a moment's ripples of the field, and every radian turned adds "
+        "odometric heading drift (0 = along the local gradient)",
+        unit="m",
+        min=0.0,
+    )
     goal_tolerance: float = param(
         0.05,
         help="the planner stops (GOAL_REACHED) when its ODOMETRIC position is this close to the "
@@ -189,6 +213,12 @@ class PlannerConfig:
     def __post_init__(self) -> None:
         if not self.omega < 2.0:
             msg = f"omega must be below 2 for SOR to converge, got {self.omega}"
+            raise ValueError(msg)
+        if not self.obstacle_weight > 0.0:
+            msg = (
+                "obstacle_weight must be above 0 (a free cell walled in on four sides would "
+                f"have no neighbour to average), got {self.obstacle_weight}"
+            )
             raise ValueError(msg)
         if self.cells < 5:
             msg = (

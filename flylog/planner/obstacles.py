@@ -183,3 +183,19 @@ def obstacle_values(distance: np.ndarray, radius_cells: float, rise: float) -> n
     values = 1.0 + rise * (r + 1.0 - d) / (r + 1.0)
     values[skin(obstacles)] = 1.0
     return np.where(obstacles, values, 0.0)
+
+
+def neighbour_factor(weight: np.ndarray) -> np.ndarray:
+    """(H, W) float64: each cell's 1 / (total ``weight`` of its four neighbours), the SOR
+    multiplier of a weighted mean of the neighbours (0.25 where every weight is 1; the
+    outermost ring, never relaxed, gets 0.25).
+
+    An obstacle cell of weight ``a`` that holds ``a`` times its Dirichlet value turns the
+    neighbours' mean into the weighted mean: a = 1 is the paper's Dirichlet obstacle, a → 0
+    a reflecting (Neumann) one, and in between a Robin boundary that lets the obstacle
+    raise U in front of it by an amount that shrinks with a."""
+    w = np.asarray(weight, dtype=np.float64)
+    out = np.full(w.shape, 0.25)
+    total = ((w[:-2, 1:-1] + w[2:, 1:-1]) + w[1:-1, :-2]) + w[1:-1, 2:]
+    out[1:-1, 1:-1] = 1.0 / total
+    return out

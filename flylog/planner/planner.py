@@ -6,6 +6,16 @@ obstacles, rising inside them towards the detected cells (``escape_rise``, see
 :func:`~flylog.planner.obstacles.obstacle_values`) so a robot inside one is steered out. The
 grid keeps its values between ticks: obstacle changes only re-pin cells and the following
 sweeps carry the change through, as the paper's continually iterated function does.
+
+``obstacle_weight`` (1: the paper's form) is the weight an obstacle cell has in the mean of
+its free neighbours. With Dirichlet obstacles (weight 1), 1 − U decays like exp(−π x / w)
+along a channel of free width w (Connolly & Grupen's known weakness of Dirichlet harmonic
+fields): in the corridor scene the goal's pull 10 m down the 2.2 m channel (~1e-7) is
+weaker than that of the detour out of the back and round a wall, and −∇U at the start
+points backwards. A weight a < 1 is a Robin boundary: the decay per cell along a one-cell
+channel falls from r = 0.27 (a = 1) to r = 1 + a − √(a² + 2a) (0.78 at a = 0.03), so the
+shorter way wins. Every free cell is still a weighted mean of its neighbours with positive
+weights: the discrete maximum principle holds and the only minimum is the goal.
 """
 
 from __future__ import annotations
@@ -24,6 +34,7 @@ from flylog.planner.grid import GridGeometry, bilinear, centred_origin, gradient
 from flylog.planner.relax import sor_sweeps
 from flylog.planner.steering import (
     Command,
+    PathEnd,
     PlannedPath,
     ProgressMonitor,
     Status,
@@ -84,7 +95,12 @@ class HarmonicPlanner:
         self._obstacles = np.zeros((n, n), dtype=bool)  # inflated
         self._obstacle_values = np.zeros((n, n))  # Dirichlet values on self._obstacles
         self._fixed = np.zeros((n, n), dtype=bool)
+        # the relaxed state: obstacle cells hold obstacle_weight × their value, so the
+        # sweep's weighted mean needs no per-neighbour weights (see obs.neighbour_factor)
         self._u = self._initial_guess()
+        self._factor: np.ndarray | None = None  # None: the plain mean (obstacle_weight 1)
+        self._weighted = np.zeros((n, n), dtype=bool)  # cells holding weight × value
+        self._field_cache: np.ndarray | None = None
         self._apply_dirichlet()
         self._monitor = ProgressMonitor(config.stuck_time, config.stuck_progress)
         self._grad_cache: tuple[np.ndarray, np.ndarray] | None = None
@@ -110,7 +126,7 @@ class HarmonicPlanner:
     @property
     def potential(self) -> np.ndarray:
         """(H, W) float32 copy of U; row 0 at the origin's y, rows along +y, cols along +x."""
-        return self._u.astype(np.float32)
+        return self._field().astype(np.float32)
 
     @property
     def obstacle_mask(self) -> np.ndarray:
@@ -200,14 +216,14 @@ class HarmonicPlanner:
         if n < 0:
             msg = f"sweeps must be at least 0, got {n}"
             raise ValueError(msg)
-        self._grad_cache = None
-        change = sor_sweeps(self._u, self._fixed, cfg.omega, n, cfg.relaxation)
+        self._grad_cache = self._field_cache = None
+        change = self._sweep(n)
         if sweeps is not None:
             return change
         done = n
         while change > cfg.relax_tolerance and done < cfg.max_sweeps_per_tick:
             more = min(n, cfg.max_sweeps_per_tick - done)
-            change = sor_sweeps(self._u, self._fixed, cfg.omega, more, cfg.relaxation)
+            change = self._sweep(more)
             done += more
         return change
 
@@ -227,7 +243,7 @@ class HarmonicPlanner:
 
     def value(self, x: float, y: float) -> float:
         """U bilinearly interpolated at (x, y)."""
-        return bilinear(self._u, self.geometry, x, y)
+        return bilinear(self._field(), self.geometry, x, y)
 
     def gradient(self, x: float, y: float) -> tuple[float, float]:
         """∇U at (x, y): central-difference gradients at cell centres, bilinearly
@@ -236,7 +252,8 @@ class HarmonicPlanner:
         return (bilinear(gx, self.geometry, x, y), bilinear(gy, self.geometry, x, y))
 
     def command(self, robot_pose: Pose2D, t: float) -> Command:
-        """Velocities along −∇U at the robot, and the status at time ``t`` (seconds).
+        """Velocities towards :meth:`steering_direction` (−∇U at the robot, or the point
+        ``lookahead`` down the descent path), and the status at time ``t`` (seconds).
 
         GOAL_REACHED (zero velocities) within the goal tolerance; within
         ``goal_approach_distance`` the robot steers straight at the goal point. The forward
@@ -253,8 +270,7 @@ class HarmonicPlanner:
         if distance <= cfg.goal_approach_distance:
             direction = (dx, dy)
         else:
-            gx, gy = self.gradient(robot_pose.x, robot_pose.y)
-            direction = (-gx, -gy)
+            direction = self.steering_direction(robot_pose)
         linear, angular = unicycle_command(
             robot_pose,
             direction,
@@ -272,6 +288,32 @@ class HarmonicPlanner:
         )
         linear *= min(near_goal, near_obstacle)
         return Command(linear, angular, Status.STUCK if stuck else Status.DRIVING)
+
+    def steering_direction(self, robot_pose: Pose2D) -> tuple[float, float]:
+        """Where the robot heads (any length): −∇U at the robot, or with ``lookahead`` the
+        point that far down the descent path (−∇U if the path ends at once)."""
+        cfg = self.config
+        gx, gy = self.gradient(robot_pose.x, robot_pose.y)
+        steps = math.ceil(cfg.lookahead / cfg.path_step - 1e-9)
+        if steps <= 0:
+            return (-gx, -gy)
+        path = descend_on_grid(
+            self._gradients(),
+            self._obstacles,
+            self.geometry,
+            (robot_pose.x, robot_pose.y),
+            self.goal,
+            step=cfg.path_step,
+            max_steps=steps,
+            goal_tolerance=cfg.goal_tolerance,
+        )
+        # a path stopped by an obstacle ends inside it: aim at the last free point
+        last = -2 if path.end is PathEnd.OBSTACLE and len(path.points) > 2 else -1
+        ahead = path.points[last]
+        dx, dy = float(ahead[0]) - robot_pose.x, float(ahead[1]) - robot_pose.y
+        if math.hypot(dx, dy) < 0.5 * cfg.path_step:
+            return (-gx, -gy)
+        return (dx, dy)
 
     def clearance(self, x: float, y: float, reach: float) -> float:
         """Distance (m) from (x, y) to the nearest remembered obstacle cell's centre, if one
@@ -325,14 +367,32 @@ class HarmonicPlanner:
 
     def _apply_dirichlet(self) -> None:
         gi, gj = self._goal_cell
+        a = self.config.obstacle_weight
         self._fixed = self._border | self._obstacles
         self._fixed[gi, gj] = True
         self._u[self._border] = 1.0
-        self._u[self._obstacles] = self._obstacle_values[self._obstacles]
+        weighted = self._obstacles & ~self._border
+        weighted[gi, gj] = False
+        self._u[weighted] = a * self._obstacle_values[weighted]
         # freed obstacle cells may hold values above 1, which no free cell has at convergence
         np.minimum(self._u, 1.0, out=self._u, where=~self._fixed)
         self._u[gi, gj] = 0.0
-        self._grad_cache = None
+        self._factor = None if a == 1.0 else obs.neighbour_factor(np.where(weighted, a, 1.0))
+        self._weighted = weighted
+        self._grad_cache = self._field_cache = None
+
+    def _sweep(self, n: int) -> float:
+        cfg = self.config
+        return sor_sweeps(self._u, self._fixed, cfg.omega, n, cfg.relaxation, self._factor)
+
+    def _field(self) -> np.ndarray:
+        """U itself: the relaxed state with the obstacle cells' own values (the state holds
+        them times obstacle_weight)."""
+        if self._factor is None:
+            return self._u
+        if self._field_cache is None:
+            self._field_cache = np.where(self._weighted, self._obstacle_values, self._u)
+        return self._field_cache
 
     def _window(self, pose: Pose2D, reach: float) -> tuple[slice, slice]:
         """Rows and cols of the cells whose centres may lie within ``reach`` of the pose."""
@@ -348,5 +408,5 @@ class HarmonicPlanner:
 
     def _gradients(self) -> tuple[np.ndarray, np.ndarray]:
         if self._grad_cache is None:
-            self._grad_cache = gradient_field(self._u, self.geometry.cell_size)
+            self._grad_cache = gradient_field(self._field(), self.geometry.cell_size)
         return self._grad_cache

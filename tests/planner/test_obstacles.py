@@ -216,3 +216,14 @@ def test_distance_within_equals_its_numpy_reference(radius):
     np.testing.assert_array_equal(
         obs.distance_within(mask, radius), obs.distance_within_numpy(mask, radius)
     )
+
+
+def test_neighbour_factor_is_one_over_the_neighbours_total_weight():
+    weight = np.ones((5, 6))
+    weight[2, 3] = 0.1  # one weighted cell: its four neighbours count it as 0.1
+    f = obs.neighbour_factor(weight)
+    assert f[0, 0] == f[4, 5] == 0.25  # the border is never relaxed
+    assert f[1, 1] == 0.25 and f[2, 3] == 0.25
+    for i, j in [(1, 3), (3, 3), (2, 2), (2, 4)]:
+        assert f[i, j] == pytest.approx(1.0 / 3.1, rel=1e-15)
+    assert np.count_nonzero(f != 0.25) == 4

@@ -16,7 +16,11 @@ from flylog.planner import (
 )
 from flylog.planner.steering import speed_factor, unicycle_command
 
-SMALL = PlannerConfig(extent=6.0, cell_size=0.1, inflation_margin=0.0, confirm_after_views=1)
+# the paper's field and steering: Dirichlet obstacles, along −∇U at the robot
+PAPER = {"obstacle_weight": 1.0, "lookahead": 0.0}
+SMALL = PlannerConfig(
+    extent=6.0, cell_size=0.1, inflation_margin=0.0, confirm_after_views=1, **PAPER
+)
 
 
 def _converged(cfg: PlannerConfig = SMALL, goal=(2.0, 0.0)) -> HarmonicPlanner:
@@ -235,7 +239,12 @@ def test_path_is_bounded_and_says_which_bound_stopped_it():
 
 def test_path_into_obstacle_or_off_grid_is_reported():
     cfg = PlannerConfig(
-        extent=6.0, cell_size=0.1, robot_radius=0.0, inflation_margin=0.0, confirm_after_views=1
+        extent=6.0,
+        cell_size=0.1,
+        robot_radius=0.0,
+        inflation_margin=0.0,
+        confirm_after_views=1,
+        **PAPER,
     )
     p = _converged(cfg)
     p._u[:] = p.geometry.centres()[0] / 10.0  # private on purpose: U rises along +x
@@ -342,3 +351,131 @@ def test_cleared_obstacles_relax_back_to_the_obstacle_free_field():
     assert p.potential.max() == 1.0  # the freed core (1 + rise) is clipped back to 1
     p.relax_until(1e-10, 20_000)
     np.testing.assert_allclose(p.potential, fresh.potential, atol=1e-6)
+
+
+def _corridor_planner(
+    weight: float, kind: Relaxation = Relaxation.NUMBA, lookahead: float = 0.0
+) -> HarmonicPlanner:
+    """The corridor scene's walls (y = ±1.5 from x = −1 to 11.5, open at both ends) and its
+    four obstacles (unrotated) as detected cells, start (0, 0), goal (10.5, 0), the
+    experiments' 20 m grid, inflated by 0.4 m; converged."""
+    cfg = PlannerConfig(
+        obstacle_weight=weight, relaxation=kind, lookahead=lookahead, inflation_margin=0.1
+    )
+    p = HarmonicPlanner.centred_on(cfg, (5.25, 0.0), (10.5, 0.0))
+    x, y = p.geometry.centres()
+    walls = (np.abs(np.abs(y) - 1.5) < 0.05) & (x > -1.0) & (x < 11.5)
+    boxes = [(3.0, 0.9, 0.3, 0.3), (5.5, -0.9, 0.35, 0.3), (7.5, 0.95, 0.25, 0.25)]
+    boxes.append((9.0, -0.95, 0.25, 0.25))
+    for cx, cy, hx, hy in boxes:
+        walls |= (np.abs(x - cx) < hx) & (np.abs(y - cy) < hy)
+    p._remembered[:] = walls
+    p._set_obstacles()
+    p._apply_dirichlet()
+    assert p.relax_until(1e-13, 20_000, chunk=100).end is RelaxEnd.CONVERGED
+    return p
+
+
+def test_dirichlet_obstacles_send_the_robot_out_of_the_corridor_a_small_weight_through_it():
+    # Dirichlet obstacles (the paper's form): 1 − U decays like exp(−π x / w) along the
+    # 2.2 m free channel, so from the start the detour out of the back opening and round
+    # a wall beats the 10.5 m straight channel: −∇U points backwards.
+    paper = _corridor_planner(1.0)
+    assert paper.gradient(0.0, 0.0)[0] > 0.0
+    assert 1.0 - paper.value(0.0, 0.0) < 1e-5
+    robin = _corridor_planner(0.03)
+    gx, gy = robin.gradient(0.0, 0.0)
+    assert gx < 0.0 and abs(gy) < 0.1 * abs(gx)
+    assert abs(gx) > 100.0 * abs(paper.gradient(0.0, 0.0)[0])
+    path = robin.trace_path(Pose2D(0.0, 0.0, 0.0))
+    assert path.points[:, 0].min() > -0.05  # never backwards
+    assert np.abs(path.points[:, 1]).max() < 1.5 - 0.4  # inside the inflated walls
+    assert np.hypot(*(path.points[-1] - (10.5, 0.0))) < 0.1
+
+
+@pytest.mark.parametrize("kind", list(Relaxation), ids=lambda k: k.value)
+def test_weighted_obstacles_keep_u_harmonic_without_local_minima(kind):
+    cfg = PlannerConfig(
+        extent=6.0, cell_size=0.1, obstacle_weight=0.05, relaxation=kind, escape_rise=0.1
+    )
+    p = HarmonicPlanner.centred_on(cfg, (0.0, 0.0), (2.0, 0.0))
+    x, y = p.geometry.centres()
+    p._remembered[:] = (np.abs(x - 1.0) < 0.05) & (np.abs(y) < 1.0)  # a wall across
+    p._set_obstacles()
+    p._apply_dirichlet()
+    assert p.relax_until(1e-12, 50_000, chunk=100).end is RelaxEnd.CONVERGED
+    u, obstacles = p.potential.astype(np.float64), p.obstacle_mask
+    # U is the obstacles' own values on them (skin 1), below 1 in free space
+    np.testing.assert_array_equal(
+        u[obstacles & ~p._border], p._obstacle_values[obstacles & ~p._border].astype(np.float32)
+    )
+    free = ~obstacles & ~p._border
+    assert u[free].max() < 1.0 and u[free].min() == 0.0
+    # no free cell but the goal is a local minimum of U
+    gi, gj = p.geometry.cell_of(2.0, 0.0)
+    for i, j in zip(*np.nonzero(free), strict=True):
+        if (i, j) != (gi, gj):
+            assert _has_lower_neighbour(u, i, j), (i, j)
+    # the path from behind the wall goes round it to the goal
+    path = p.trace_path(Pose2D(0.0, 0.0, 0.0))
+    assert path.end is PathEnd.GOAL
+
+
+def _has_lower_neighbour(u: np.ndarray, i: int, j: int) -> bool:
+    return min(u[i - 1, j], u[i + 1, j], u[i, j - 1], u[i, j + 1]) < u[i, j]
+
+
+def test_obstacle_weight_must_be_positive():
+    with pytest.raises(ValueError, match="obstacle_weight must be above 0"):
+        PlannerConfig(obstacle_weight=0.0)
+
+
+def test_lookahead_steers_at_the_point_that_far_down_the_descent_path():
+    cfg = PlannerConfig(**{**SMALL.__dict__, "obstacle_weight": 0.03, "lookahead": 0.5})
+    p = HarmonicPlanner.centred_on(cfg, (0.0, 0.0), (2.0, 0.0))
+    x, y = p.geometry.centres()
+    p._remembered[:] = (np.abs(x - 0.8) < 0.05) & (np.abs(y) < 1.0)  # a wall across
+    p._set_obstacles()
+    p._apply_dirichlet()
+    assert p.relax_until(1e-10, 20_000).end is RelaxEnd.CONVERGED
+    pose = Pose2D(0.8, -1.5, 0.0)  # below the wall's end: the path bends round it
+    path = p.trace_path(pose).points
+    k = 10  # 0.5 m in steps of path_step 0.05 m
+    dx, dy = p.steering_direction(pose)
+    np.testing.assert_allclose((dx, dy), path[k] - (pose.x, pose.y), atol=1e-12)
+    # without lookahead: −∇U at the robot, a different heading on the bend
+    gx, gy = p.gradient(pose.x, pose.y)
+    plain = HarmonicPlanner.centred_on(
+        PlannerConfig(**{**cfg.__dict__, "lookahead": 0.0}), (0.0, 0.0), (2.0, 0.0)
+    )
+    plain._remembered[:] = p.detected_mask
+    plain._set_obstacles()
+    plain._apply_dirichlet()
+    plain._u[:] = p._u
+    np.testing.assert_allclose(plain.steering_direction(pose), (-gx, -gy), atol=0)
+    assert abs(math.atan2(dy, dx) - math.atan2(-gy, -gx)) > 0.03
+
+
+def _drive_through_corridor(p: HarmonicPlanner) -> tuple[Pose2D, float]:
+    """Noise-free unicycle on the converged field at 10 Hz: the end pose and ∫w² dt."""
+    from flylog.sim.kinematics import integrate_unicycle
+
+    pose, w2 = Pose2D(0.0, 0.0, 0.0), 0.0
+    for k in range(1200):
+        c = p.command(pose, 0.1 * k)
+        if c.status is Status.GOAL_REACHED:
+            break
+        w2 += c.angular**2 * 0.1
+        pose = integrate_unicycle(pose, c.linear, c.angular, 0.1)
+    return pose, w2
+
+
+def test_lookahead_turns_less_through_the_corridor():
+    # the simulated heading noise grows with the turn rate: its variance with ∫w² dt
+    plain = _corridor_planner(0.03)
+    ahead = _corridor_planner(0.03, lookahead=0.5)
+    end_plain, w2_plain = _drive_through_corridor(plain)
+    end_ahead, w2_ahead = _drive_through_corridor(ahead)
+    for end in (end_plain, end_ahead):
+        assert math.hypot(end.x - 10.5, end.y) <= plain.config.goal_tolerance
+    assert w2_ahead < 0.8 * w2_plain

@@ -1,3 +1,5 @@
+import math
+
 import numpy as np
 import pytest
 
@@ -125,3 +127,54 @@ def test_sor_sweeps_dispatches_and_checks_types():
     assert ca == pytest.approx(cb, abs=1e-14)
     with pytest.raises(ValueError, match="float64"):
         sor_sweeps(u.astype(np.float32), fixed, 1.5, 1, Relaxation.NUMBA)
+
+
+@pytest.mark.parametrize("shape", [(3, 8), (8, 8), (9, 4), (30, 41)])
+def test_numba_equals_numpy_bit_for_bit_with_per_cell_factors(shape):
+    rng = np.random.default_rng(3 + sum(shape))
+    u = rng.random(shape)
+    fixed = _box(*shape) | (rng.random(shape) < 0.15)
+    factor = 1.0 / (1.0 + 3.0 * rng.random(shape))  # weighted means: 1/4 … 1
+    a, b = u.copy(), u.copy()
+    ca = sor_sweeps_numba(a, fixed, 1.7, 7, factor)
+    cb = sor_sweeps_numpy(b, fixed, 1.7, 7, factor)
+    np.testing.assert_array_equal(a, b)
+    assert ca == cb > 0.0
+
+
+@pytest.mark.parametrize("sweep", IMPLS, ids=IDS)
+def test_a_factor_of_a_quarter_everywhere_is_the_plain_mean(sweep):
+    rng = np.random.default_rng(5)
+    u = rng.random((17, 20))
+    fixed = _box(17, 20) | (rng.random((17, 20)) < 0.1)
+    a, b = u.copy(), u.copy()
+    assert sweep(a, fixed, 1.8, 5, np.full(u.shape, 0.25)) == sweep(b, fixed, 1.8, 5)
+    np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("sweep", IMPLS, ids=IDS)
+@pytest.mark.parametrize("weight", [1.0, 0.1, 0.01])
+def test_weighted_obstacles_give_the_discrete_robin_solution_along_a_channel(sweep, weight):
+    # One free row between two obstacle rows (value 1, weight a, stored as a × 1), the goal
+    # (0) at the left end and 1 at the right: with v = 1 − U the free cells obey
+    # (2 + 2a) v_j = v_{j−1} + v_{j+1}, so v_j = A r^j + B r^−j with r + 1/r = 2 + 2a.
+    # Dirichlet obstacles (a = 1) make v fall by r = 0.27 a cell: exp(−π x / w) in a wide
+    # channel; a small weight lets the goal's pull reach far down the channel.
+    n = 40
+    u = np.full((3, n), weight)
+    u[:, 0], u[:, -1] = 0.0, 1.0
+    factor = np.full((3, n), 0.25)
+    factor[1, 1:-1] = 1.0 / (2.0 + 2.0 * weight)
+    fixed = _box(3, n)
+    assert sweep(u, fixed, 1.2, 5000, factor) < 1e-14
+    r = 1.0 + weight - math.sqrt(weight * weight + 2.0 * weight)
+    j = np.arange(n)
+    m = n - 1
+    expected = (r**j - r ** (2 * m - j)) / (1.0 - r ** (2 * m))  # v_0 = 1, v_m = 0
+    np.testing.assert_allclose(1.0 - u[1], expected, rtol=0, atol=1e-12)
+
+
+def test_sor_sweeps_rejects_a_factor_of_the_wrong_shape():
+    u, fixed = np.zeros((6, 7)), _box(6, 7)
+    with pytest.raises(ValueError, match=r"factor float64 of shape \(6, 7\)"):
+        sor_sweeps(u, fixed, 1.5, 1, Relaxation.NUMPY, np.full((7, 6), 0.25))
