@@ -297,16 +297,7 @@ class HarmonicPlanner:
         steps = math.ceil(cfg.lookahead / cfg.path_step - 1e-9)
         if steps <= 0:
             return (-gx, -gy)
-        path = descend_on_grid(
-            self._gradients(),
-            self._obstacles,
-            self.geometry,
-            (robot_pose.x, robot_pose.y),
-            self.goal,
-            step=cfg.path_step,
-            max_steps=steps,
-            goal_tolerance=cfg.goal_tolerance,
-        )
+        path = self._descend(robot_pose, steps)
         # a path stopped by an obstacle ends inside it: aim at the last free point
         last = -2 if path.end is PathEnd.OBSTACLE and len(path.points) > 2 else -1
         ahead = path.points[last]
@@ -329,6 +320,10 @@ class HarmonicPlanner:
     def trace_path(self, robot_pose: Pose2D) -> PlannedPath:
         """Gradient descent from the robot (bounded by ``path_max_steps``), and why it
         ended."""
+        return self._descend(robot_pose, self.config.path_max_steps)
+
+    def _descend(self, robot_pose: Pose2D, max_steps: int) -> PlannedPath:
+        """Gradient descent on the grid from the robot, at most ``max_steps`` steps."""
         cfg = self.config
         return descend_on_grid(
             self._gradients(),
@@ -337,7 +332,7 @@ class HarmonicPlanner:
             (robot_pose.x, robot_pose.y),
             self.goal,
             step=cfg.path_step,
-            max_steps=cfg.path_max_steps,
+            max_steps=max_steps,
             goal_tolerance=cfg.goal_tolerance,
         )
 
