@@ -8,7 +8,7 @@ Usable as a library without any log::
     points = obstacle_points(engine, quantile=0.5, ground_margin=0.05)
 """
 
-from flylog.fly.config import Backend, EngineConfig
+from flylog.fly.config import Backend, EngineConfig, Gradient
 from flylog.fly.engine import FlyEngine, GenerationStats
 from flylog.fly.fitness import INVALID_FITNESS, fitness_numba, fitness_numpy
 from flylog.fly.obstacles import ObstacleFlies, obstacle_mask, obstacle_points
@@ -20,6 +20,7 @@ __all__ = [
     "EngineConfig",
     "FlyEngine",
     "GenerationStats",
+    "Gradient",
     "ObstacleFlies",
     "Population",
     "fitness_numba",

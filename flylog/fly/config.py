@@ -15,6 +15,15 @@ class Backend(enum.Enum):
     NUMPY = "numpy"
 
 
+class Gradient(enum.Enum):
+    """What G, the fitness numerator, measures of the left image's 3×3 Sobel."""
+
+    NORM = "norm"  # sqrt of the gradient norm, sqrt((Σ_c gx² + gy²)^½) (paper §2.1.1)
+    # sqrt((Σ_c gx²)^½): the horizontal derivative alone, the only one a horizontal disparity
+    # is measured along (a horizontal edge matches at every depth: the aperture problem).
+    HORIZONTAL = "horizontal"
+
+
 @dataclass(frozen=True)
 class EngineConfig:
     """The fly algorithm (paper §2.1, §2.2, §3.2, §3.4); each feature can be switched off."""
@@ -24,6 +33,11 @@ class EngineConfig:
     d_max: float = param(20.0, help="farthest depth searched (initialisation)", unit="m")
     window: int = param(
         7, help="side of the square fitness neighbourhood (odd)", unit="px", min=3, max=31
+    )
+    gradient: Gradient = param(
+        Gradient.NORM,
+        help="fitness numerator G: sqrt of the Sobel gradient norm (norm, the paper's) or of "
+        "|gx| alone (horizontal: G = 0 on horizontal edges, which carry no disparity)",
     )
     guard: float = param(
         1.0,

@@ -21,6 +21,7 @@ from flylog.fly.fitness import (
     as_planes,
     fitness_into,
     fitness_numpy,
+    gy_weight,
     rig_constants,
 )
 from flylog.fly.fusion import (
@@ -91,6 +92,7 @@ class FlyEngine:
         self._spare = Population.fresh(np.empty((config.flies, 3)))
         self._numba = config.backend is Backend.NUMBA
         self._rig_constants = rig_constants(rig)
+        self._gy_weight = gy_weight(config.gradient)
         self._counter = NeighbourCounter()
         self._all = np.arange(config.flies, dtype=np.int64)
         self._none = self._all[:0]
@@ -290,7 +292,7 @@ class FlyEngine:
         if len(index) >= PARALLEL_MIN_EVALUATIONS:
             fitness_into(
                 left, right, channels, pop.xyz, index, self._rig_constants, cfg.window,
-                float(cfg.guard), pop.vision,
+                float(cfg.guard), self._gy_weight, pop.vision,
             )  # fmt: skip
             pop.stale[index] = False
             pop.stamp_ns[index] = self._stamp_ns
@@ -299,6 +301,7 @@ class FlyEngine:
             left, right, channels, pop.xyz, index, self._rig_constants, cfg.window,
             float(cfg.guard), self._stamp_ns, pop.vision, pop.stale, pop.stamp_ns, sonars,
             self._cos_half_cone, cfg.sonar_tolerance, cfg.sonar_bonus, fuse, pop.fitness,
+            self._gy_weight,
         )  # fmt: skip
 
     def _score_numpy(
@@ -308,8 +311,9 @@ class FlyEngine:
         assert self._left is not None and self._right is not None
         if len(index):
             pop.vision[index] = fitness_numpy(
-                self._left, self._right, pop.xyz[index], self.rig, cfg.window, cfg.guard
-            )
+                self._left, self._right, pop.xyz[index], self.rig, cfg.window, cfg.guard,
+                gradient=cfg.gradient,
+            )  # fmt: skip
             pop.stale[index] = False
             pop.stamp_ns[index] = self._stamp_ns
         if len(fuse) == 0:

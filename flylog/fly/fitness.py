@@ -3,7 +3,10 @@
 ``fitness = G / (Σ_c ZSSD_c + guard·n·C)`` where, for each channel c, over the n = w×w
 neighbourhood with d = L − R, ``ZSSD_c = Σd² − (Σd)²/n`` (the SSD of the two patches once each
 has lost its own mean), and ``G = sqrt(|Sobel|)``, the square root of the Sobel gradient norm
-of the left image at the left projection (summed over channels under the norm).
+of the left image at the left projection (summed over channels under the norm). With
+:attr:`Gradient.HORIZONTAL` the norm is of gx alone (``gy_weight`` 0 in the kernels):
+``G = sqrt((Σ_c gx_c²)^½)``, equal to the paper's G wherever gy = 0 (a vertical edge) and 0 on
+a horizontal edge, along which a horizontal disparity cannot be measured.
 
 Projections are rounded to the nearest pixel (``floor(u + 0.5)``), not interpolated. Only
 the w×w pixels around each projection are read: no whole-image pre-processing. A fly behind
@@ -23,6 +26,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from flylog.fly.config import Gradient
 from flylog.fly.fitness_vector import (
     HALF,
     LANES,
@@ -35,6 +39,12 @@ from flylog.fly.fitness_vector import (
 from flylog.geometry import StereoRig
 
 INVALID_FITNESS = -1.0
+
+
+def gy_weight(gradient: Gradient) -> int:
+    """The weight of gy² in the Sobel norm² the kernels compute: 1 for the paper's norm, 0 for
+    the horizontal derivative alone (``gradient`` a :class:`Gradient` or its value)."""
+    return 1 if Gradient(gradient) is Gradient.NORM else 0
 
 
 @dataclass(frozen=True, slots=True)
@@ -99,6 +109,8 @@ def fitness_numpy(
     rig: StereoRig,
     window: int,
     guard: float,
+    *,
+    gradient: Gradient = Gradient.NORM,
 ) -> np.ndarray:
     """Reference: the fitness of every fly of ``xyz`` (N, 3), by gathering whole patches."""
     left, right = as_planes(left), as_planes(right)
@@ -123,7 +135,7 @@ def fitness_numpy(
     c = patch_l[:, h - 1 : h + 2, h - 1 : h + 2]  # the 3×3 around the left projection
     gx = (c[:, :, 2] - c[:, :, 0]) * np.array([1, 2, 1])[None, :, None]
     gy = (c[:, 2, :] - c[:, 0, :]) * np.array([1, 2, 1])[None, :, None]
-    grad2 = (gx.sum(axis=1) ** 2 + gy.sum(axis=1) ** 2).sum(axis=1)
+    grad2 = (gx.sum(axis=1) ** 2 + gy_weight(gradient) * gy.sum(axis=1) ** 2).sum(axis=1)
     out[valid] = np.sqrt(np.sqrt(grad2.astype(np.float64))) / (zssd + guard * n * channels)
     return out
 
@@ -150,9 +162,10 @@ def _byte(flat, offset):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True)
-def _sobel_norm2(flat, centre, stride, channels):  # pragma: no cover - compiled
-    """Σ_c (gx² + gy²) of the 3×3 Sobel around the flat offset ``centre`` (channel 0) of an
-    image read as a flat (H·W·C) array (offsets unsigned: no wraparound test per read)."""
+def _sobel_norm2(flat, centre, stride, channels, gy_weight=1):  # pragma: no cover - compiled
+    """Σ_c (gx² + gy_weight·gy²) of the 3×3 Sobel around the flat offset ``centre`` (channel
+    0) of an image read as a flat (H·W·C) array (offsets unsigned: no wraparound test per
+    read)."""
     grad2 = np.int64(0)
     across, down = np.uint64(channels), np.uint64(stride)
     for c in range(channels):
@@ -163,7 +176,7 @@ def _sobel_norm2(flat, centre, stride, channels):  # pragma: no cover - compiled
         sw, s, se = _byte(flat, b - across), _byte(flat, b), _byte(flat, b + across)
         gx = ne - nw + 2 * (e - w) + se - sw
         gy = sw - nw + 2 * (s - n) + se - ne
-        grad2 += gx * gx + gy * gy
+        grad2 += gx * gx + gy_weight * gy * gy
     return grad2
 
 
@@ -222,8 +235,10 @@ def _prefetch_window(lflat, rflat, bl, br, stride, window, lanes):  # pragma: no
 
 
 @numba.njit(cache=True, nogil=True)
-def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, guard, masks, out):
-    """Fitness of flies index[start:stop]; ``masks`` from :func:`lane_masks`."""
+def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, guard, gy_weight,
+                   masks, out):  # fmt: skip  # pragma: no cover - compiled
+    """Fitness of flies index[start:stop]; ``masks`` from :func:`lane_masks` with the same
+    ``gy_weight``."""
     height = lrow.shape[0]
     stride = lrow.shape[1]
     width = stride // channels
@@ -282,7 +297,7 @@ def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, gua
             else:
                 totals[t] = _zssd_lanes(lflat, rflat, bl, br, stride, window, channels, scratch)
                 centre = bl + h * stride + h * channels
-                grads[t] = _sobel_norm2(lflat, centre, stride, channels)
+                grads[t] = _sobel_norm2(lflat, centre, stride, channels, gy_weight)
         for t in range(m):
             fitness = INVALID_FITNESS
             if first_l[t] >= 0:
@@ -300,22 +315,25 @@ PARALLEL_MIN_EVALUATIONS = 20_000
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
-def _fitness_parallel(lrow, rrow, channels, xyz, index, k, window, guard, out):  # pragma: no cover
+def _fitness_parallel(lrow, rrow, channels, xyz, index, k, window, guard, gy_weight,
+                      out):  # fmt: skip  # pragma: no cover - compiled
     m = index.shape[0]
-    masks = lane_masks(window, channels)
+    masks = lane_masks(window, channels, gy_weight)
     for chunk in numba.prange(_CHUNKS):
         _fitness_range(
             lrow, rrow, channels, xyz, index, chunk * m // _CHUNKS, (chunk + 1) * m // _CHUNKS,
-            k, window, guard, masks, out,
+            k, window, guard, gy_weight, masks, out,
         )  # fmt: skip
 
 
 @numba.njit(cache=True, nogil=True)
-def _fitness_serial(lrow, rrow, channels, xyz, index, k, window, guard, out):  # pragma: no cover
-    masks = lane_masks(window, channels)
+def _fitness_serial(lrow, rrow, channels, xyz, index, k, window, guard, gy_weight,
+                    out):  # fmt: skip  # pragma: no cover - compiled
+    masks = lane_masks(window, channels, gy_weight)
     _fitness_range(
-        lrow, rrow, channels, xyz, index, 0, index.shape[0], k, window, guard, masks, out
-    )
+        lrow, rrow, channels, xyz, index, 0, index.shape[0], k, window, guard, gy_weight, masks,
+        out,
+    )  # fmt: skip
 
 
 # For kernels that score flies as part of a larger compiled call (one thread, no dispatch).
@@ -331,14 +349,15 @@ def fitness_into(
     consts: np.ndarray,
     window: int,
     guard: float,
+    gy_weight: int,
     out: np.ndarray,
     parallel_min: int = PARALLEL_MIN_EVALUATIONS,
 ) -> None:
     """:func:`fitness_numba` without the argument conversions, for a caller (the engine) that
     keeps them: (H, W·C) uint8 rows, C-contiguous float64 ``xyz``, int64 ``index``, ``consts``
-    from :func:`rig_constants`."""
+    from :func:`rig_constants`, ``gy_weight`` from :func:`gy_weight`."""
     kernel = _fitness_parallel if len(index) >= parallel_min else _fitness_serial
-    kernel(left_rows, right_rows, channels, xyz, index, consts, window, guard, out)
+    kernel(left_rows, right_rows, channels, xyz, index, consts, window, guard, gy_weight, out)
 
 
 def fitness_numba(
@@ -349,6 +368,7 @@ def fitness_numba(
     window: int,
     guard: float,
     *,
+    gradient: Gradient = Gradient.NORM,
     index: np.ndarray | None = None,
     out: np.ndarray | None = None,
     parallel_min: int = PARALLEL_MIN_EVALUATIONS,
@@ -376,6 +396,7 @@ def fitness_numba(
         consts,
         window,
         float(guard),
+        gy_weight(gradient),
         out,
     )
     return out

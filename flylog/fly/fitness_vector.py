@@ -200,9 +200,10 @@ window_terms_32 = window_terms_intrinsic(PAIR_SUMS, 2)
 
 
 @numba.njit(cache=True, nogil=True)
-def lane_masks(window, channels):  # pragma: no cover - compiled
+def lane_masks(window, channels, gy_weight=1):  # pragma: no cover - compiled
     """(_MASK_ROWS, 2, 16) int16 lane masks for a window and channel count (see _MASK_*); lane
-    j is byte j of a window row: pixel j // channels, channel j % channels."""
+    j is byte j of a window row: pixel j // channels, channel j % channels. ``gy_weight`` 0
+    zeroes the gy masks, so the kernels' Sobel norm² is Σ_c gx² (the horizontal gradient)."""
     masks = np.zeros((_MASK_ROWS, 2, HALF), dtype=np.int16)
     if channels > MAX_CHANNELS or window * channels > LANES:
         return masks  # such windows take the lane loop
@@ -214,5 +215,5 @@ def lane_masks(window, channels):  # pragma: no cover - compiled
         for pixel, gx, gy in ((h - 1, -1, 1), (h, 0, 2), (h + 1, 1, 1)):
             j = pixel * channels + c
             masks[_MASK_GX + c, j // HALF, j % HALF] = gx
-            masks[_MASK_GY + c, j // HALF, j % HALF] = gy
+            masks[_MASK_GY + c, j // HALF, j % HALF] = gy * gy_weight
     return masks

@@ -4,11 +4,13 @@ import math
 import numpy as np
 import pytest
 
-from flylog.errors import FlylogError
+from flylog.config import from_mapping
+from flylog.errors import ConfigError, FlylogError
 from flylog.fly import (
     Backend,
     EngineConfig,
     FlyEngine,
+    Gradient,
     obstacle_mask,
     obstacle_points,
 )
@@ -89,6 +91,7 @@ def test_same_seed_same_population_bit_for_bit(sonar_scene):
         EngineConfig(flies=1000),
         # Many crossovers of a parent with itself: equal flies, ties at the selection cut.
         EngineConfig(flies=1000, crossover2_rate=0.45, crossover3_rate=0.45),
+        EngineConfig(flies=1000, gradient=Gradient.HORIZONTAL),
     ],
 )
 def test_numba_and_numpy_backends_give_the_same_population(sonar_scene, cfg):
@@ -96,6 +99,14 @@ def test_numba_and_numpy_backends_give_the_same_population(sonar_scene, cfg):
     a, _ = run(cfg, (pair,), seed=3, sonar=reading)
     b, _ = run(dataclasses.replace(cfg, backend=Backend.NUMPY), (pair,), seed=3, sonar=reading)
     assert_same_population(a.population, b.population)
+
+
+def test_gradient_option_loads_from_toml_and_defaults_to_the_papers_norm():
+    assert EngineConfig().gradient is Gradient.NORM
+    cfg = from_mapping(EngineConfig, {"gradient": "horizontal"}, source="r.toml")
+    assert cfg.gradient is Gradient.HORIZONTAL
+    with pytest.raises(ConfigError, match=r"r.toml: field 'gradient': expected one of"):
+        from_mapping(EngineConfig, {"gradient": "vertical"}, source="r.toml")
 
 
 def test_fitness_is_recomputed_only_when_images_change(small_frame):

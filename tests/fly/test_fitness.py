@@ -5,6 +5,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from flylog.fly import fitness, fitness_vector
+from flylog.fly.config import Gradient
 from flylog.fly.fitness import (
     INVALID_FITNESS,
     fitness_numba,
@@ -18,12 +19,12 @@ from tests.fly.analytic import render, room
 SMALL = StereoRig(width=64, height=48, focal_px=50.0, baseline=0.12)
 
 
-def _numba_serial(*args):
-    return fitness_numba(*args, parallel_min=10**9)
+def _numba_serial(*args, **kwargs):
+    return fitness_numba(*args, parallel_min=10**9, **kwargs)
 
 
-def _numba_parallel(*args):
-    return fitness_numba(*args, parallel_min=0)
+def _numba_parallel(*args, **kwargs):
+    return fitness_numba(*args, parallel_min=0, **kwargs)
 
 
 IMPLEMENTATIONS = [fitness_numpy, _numba_serial, _numba_parallel]
@@ -50,18 +51,21 @@ def cases(draw):
     return left, right, xyz, window
 
 
+@pytest.mark.parametrize("gradient", list(Gradient))
 @settings(max_examples=60, deadline=None)
-@given(cases())
-def test_numba_kernel_equals_numpy_reference(case):
+@given(case=cases())
+def test_numba_kernel_equals_numpy_reference(gradient, case):
     left, right, xyz, window = case
-    expected = fitness_numpy(left, right, xyz, SMALL, window, 1.0)
+    expected = fitness_numpy(left, right, xyz, SMALL, window, 1.0, gradient=gradient)
     for impl in (_numba_serial, _numba_parallel):
-        np.testing.assert_array_equal(impl(left, right, xyz, SMALL, window, 1.0), expected)
+        got = impl(left, right, xyz, SMALL, window, 1.0, gradient=gradient)
+        np.testing.assert_array_equal(got, expected)
 
 
+@pytest.mark.parametrize("gradient", list(Gradient))
 @pytest.mark.parametrize("channels", [1, 3])
 @pytest.mark.parametrize("window", [5, 7, 15])
-def test_windows_at_the_image_end_equal_numpy_reference(channels, window):
+def test_windows_at_the_image_end_equal_numpy_reference(channels, window, gradient):
     # The last rows' vector reads would pass the end of the image: the scalar path takes them.
     rng = np.random.default_rng(window * channels)
     shape = (SMALL.height, SMALL.width) + ((channels,) if channels > 1 else ())
@@ -70,19 +74,20 @@ def test_windows_at_the_image_end_equal_numpy_reference(channels, window):
     h = window // 2
     u, v = np.meshgrid(np.arange(h, SMALL.width - h), np.arange(SMALL.height - h - 3, SMALL.height))
     xyz = SMALL.backproject(u.ravel(), v.ravel(), np.full(u.size, 1e4))  # right ≈ left column
-    expected = fitness_numpy(left, right, xyz, SMALL, window, 1.0)
+    expected = fitness_numpy(left, right, xyz, SMALL, window, 1.0, gradient=gradient)
     assert (expected > 0).sum() > 100
-    np.testing.assert_array_equal(_numba_serial(left, right, xyz, SMALL, window, 1.0), expected)
+    got = _numba_serial(left, right, xyz, SMALL, window, 1.0, gradient=gradient)
+    np.testing.assert_array_equal(got, expected)
 
 
 @numba.njit
-def _scalar_terms(left, right, bl, br, stride, window, channels):
+def _scalar_terms(left, right, bl, br, stride, window, channels, gy_weight):
     h = window // 2
     centre = bl + h * stride + h * channels
     scratch = np.empty((2, window * channels), dtype=np.int32)
     return (
         fitness._zssd_lanes(left, right, bl, br, stride, window, channels, scratch),
-        fitness._sobel_norm2(left, centre, stride, channels),
+        fitness._sobel_norm2(left, centre, stride, channels, gy_weight),
     )
 
 
@@ -104,8 +109,8 @@ def test_vector_window_terms_equal_scalar_ones(pair_sums, vectors):
     terms = fitness_vector.window_terms_intrinsic(pair_sums, vectors)
 
     @numba.njit
-    def vector_terms(left, right, bl, br, stride, window, channels):
-        masks = fitness_vector.lane_masks(window, channels)
+    def vector_terms(left, right, bl, br, stride, window, channels, gy_weight):
+        masks = fitness_vector.lane_masks(window, channels, gy_weight)
         sq, squares, grad2 = terms(left, right, bl, br, stride, window, masks)
         return window * window * sq - squares, grad2
 
@@ -122,11 +127,18 @@ def test_vector_window_terms_equal_scalar_ones(pair_sums, vectors):
                 right[:] = 0
                 left[:] = 255 if case == "saturated" else 255 * (rng.random(left.size) < 0.5)
             bl, br = int(rng.integers(0, 100)), int(rng.integers(0, 100))
-            want = _scalar_terms(left, right, bl, br, stride, window, channels)
-            got = vector_terms(left, right, bl, br, stride, window, channels)
-            assert got == want, (window, channels, case)
+            want = {}
+            for gy_weight in (1, 0):  # the Sobel norm², then gx² alone
+                want[gy_weight] = _scalar_terms(
+                    left, right, bl, br, stride, window, channels, gy_weight
+                )
+                got = vector_terms(left, right, bl, br, stride, window, channels, gy_weight)
+                assert got == want[gy_weight], (window, channels, case, gy_weight)
+            assert want[0][0] == want[1][0] and want[0][1] <= want[1][1]
             if case != "saturated":
-                assert want[0] > 0 and want[1] > 0
+                assert want[1][0] > 0 and want[1][1] > 0
+            if case == "random":  # both derivatives non-zero: dropping gy changes the norm
+                assert want[1][1] > want[0][1] > 0
 
 
 @pytest.fixture(scope="module")
@@ -197,6 +209,51 @@ def test_invalid_flies_get_lowest_fitness(impl, frame):
     # Far flies: right projection ≈ left one; u = h is the first column whose window fits.
     assert got[0] >= 0 and got[2] >= 0
     assert list(got[[1, 3, 4, 5]]) == [INVALID_FITNESS] * 4
+
+
+STEP = StereoRig(width=48, height=32, focal_px=40.0, baseline=0.1)
+
+
+def _step_edge_flies(vertical: bool, disparities: np.ndarray):
+    """A 50 → 200 step edge in both images (vertical: between columns 23 and 24, the right
+    image shifted by 6 px; horizontal: between rows 15 and 16, the same in both images), and
+    flies at ``disparities`` on the edge (left projection at column 24 or row 16)."""
+    u = np.arange(STEP.width)
+    v = np.arange(STEP.height)
+    if vertical:
+        left = np.where(u[None, :] >= 24, 200, 50) + 0 * v[:, None]
+        right = np.where(u[None, :] + 6 >= 24, 200, 50) + 0 * v[:, None]
+        u_fly, v_fly = np.full(len(disparities), 24.0), np.full(len(disparities), 16.0)
+    else:
+        left = right = np.where(v[:, None] >= 16, 200, 50) + 0 * u[None, :]
+        u_fly, v_fly = np.full(len(disparities), 30.0), np.full(len(disparities), 16.0)
+    depth = STEP.focal_px * STEP.baseline / disparities
+    xyz = STEP.backproject(u_fly, v_fly, depth)
+    return left.astype(np.uint8), right.astype(np.uint8), xyz
+
+
+@pytest.mark.parametrize("impl", IMPLEMENTATIONS)
+def test_horizontal_gradient_gives_horizontal_edges_no_fitness(impl):
+    # Aperture problem: a horizontal edge matches perfectly (ZSSD 0) at every disparity. The
+    # paper's G rewards it (Sobel gy = 4 · 150); the horizontal one does not (gx = 0).
+    disparities = np.array([2.0, 5.0, 9.0, 14.0])
+    left, right, xyz = _step_edge_flies(False, disparities)
+    norm = impl(left, right, xyz, STEP, 5, 1.0)
+    horizontal = impl(left, right, xyz, STEP, 5, 1.0, gradient=Gradient.HORIZONTAL)
+    np.testing.assert_allclose(norm, np.sqrt(4 * 150) / 25)
+    np.testing.assert_array_equal(horizontal, 0.0)
+
+
+@pytest.mark.parametrize("impl", IMPLEMENTATIONS)
+def test_both_gradients_agree_on_vertical_edges(impl):
+    # gy = 0 on a vertical edge: the same fitness bit for bit, highest at the true disparity.
+    disparities = np.array([4.0, 5.0, 6.0, 7.0, 8.0])
+    left, right, xyz = _step_edge_flies(True, disparities)
+    norm = impl(left, right, xyz, STEP, 5, 1.0)
+    horizontal = impl(left, right, xyz, STEP, 5, 1.0, gradient=Gradient.HORIZONTAL)
+    np.testing.assert_array_equal(horizontal, norm)
+    assert norm[2] == pytest.approx(np.sqrt(4 * 150) / 25)
+    assert norm.argmax() == 2 and np.all(np.delete(norm, 2) < norm[2] / 100)
 
 
 def test_left_projections_kernel_equals_rig_project():
