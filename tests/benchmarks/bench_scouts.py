@@ -54,7 +54,7 @@ def _run(config: EngineConfig, rig: StereoRig, frames: list[StereoPair]) -> tupl
 def run(out_dir: Path) -> list[dict]:
     rig = StereoRig(width=320, height=240, focal_px=250.0)
     frames = _frames(rig)
-    on = EngineConfig()
+    on = EngineConfig(scouting=True)
     off = dataclasses.replace(on, scouting=False)
     _run(on, rig, frames[:2])  # compile
     best = {"on": math.inf, "off": math.inf}

@@ -117,7 +117,7 @@ def turned_engine(config, frame, yaw, *, seed=0, generations=1):
 
 
 def test_scouts_are_charged_and_placed_only_while_turning(panel_frame):
-    cfg = EngineConfig(flies=1000, scout_fraction=0.5, scout_candidates=8)
+    cfg = EngineConfig(flies=1000, scouting=True, scout_fraction=0.5, scout_candidates=8)
     n_scouts = round(0.5 * cfg.immigrants)
     _, s0 = turned_engine(cfg, panel_frame, 0.0)
     turning, s1 = turned_engine(cfg, panel_frame, -0.03)
@@ -136,7 +136,9 @@ def test_scouts_are_charged_and_placed_only_while_turning(panel_frame):
 def test_a_generation_never_makes_more_evaluations_than_the_config_bounds(panel_frame):
     """Replay's clock relies on EngineConfig.max_evaluations (it decides from it when a
     published population may be dropped): every scout scouting, all flies stale."""
-    cfg = EngineConfig(flies=400, scout_fraction=1.0, scout_candidates=64, sonar_immigration=False)
+    cfg = EngineConfig(
+        flies=400, scouting=True, scout_fraction=1.0, scout_candidates=64, sonar_immigration=False
+    )
     _, stats = turned_engine(cfg, panel_frame, -0.03)
     assert stats[0].evaluations == cfg.max_evaluations  # the bound is reached, not exceeded
 
@@ -146,7 +148,7 @@ def test_scouts_find_the_depth_of_what_enters_the_view(panel_frame):
     # floor below it). Best of 16 depths, a scout is on the surface (within 5 %) far more
     # often than a uniform immigrant (measured: 0.39 against 0.03).
     _, depth = panel_frame
-    cfg = EngineConfig(flies=2000, immigration_fraction=0.1, scout_fraction=1.0,
+    cfg = EngineConfig(flies=2000, scouting=True, immigration_fraction=0.1, scout_fraction=1.0,
                        scout_candidates=16)  # fmt: skip
 
     def on_surface(config):
@@ -161,7 +163,7 @@ def test_scouts_find_the_depth_of_what_enters_the_view(panel_frame):
 
 @pytest.mark.parametrize("yaw", [-0.03, 0.03])
 def test_numba_and_numpy_backends_give_the_same_population_while_turning(panel_frame, yaw):
-    cfg = EngineConfig(flies=800)
+    cfg = EngineConfig(flies=800, scouting=True)
     a, _ = turned_engine(cfg, panel_frame, yaw, seed=4, generations=3)
     b, _ = turned_engine(
         dataclasses.replace(cfg, backend=Backend.NUMPY), panel_frame, yaw, seed=4, generations=3
@@ -175,7 +177,9 @@ def test_numba_and_numpy_backends_give_the_same_population_while_turning(panel_f
 
 
 def test_the_strip_spans_the_turn_of_the_last_image_intervals():
-    scouts = Scouting(EngineConfig(scout_strip_frames=2, scout_min_shift=0.5), RIG, MARGIN)
+    scouts = Scouting(
+        EngineConfig(scouting=True, scout_strip_frames=2, scout_min_shift=0.5), RIG, MARGIN
+    )
     assert scouts.count(100, 0) == 0  # no images yet
     for _ in range(2):
         scouts.turned(-0.004)
