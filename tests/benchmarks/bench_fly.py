@@ -295,12 +295,9 @@ def _compile_figures() -> list[dict]:
     ]
 
 
-LOG = Path(__file__).resolve().parents[2] / "bench-out" / "bench_replay_corridor_60s.mcap"
-
-
-def _log_calls(seconds: float) -> tuple[StereoRig, list[tuple[str, object]]]:
+def _log_calls(log: Path, seconds: float) -> tuple[StereoRig, list[tuple[str, object]]]:
     """The engine calls of ``flylog replay LOG --generations-per-frame 10`` over the first
-    ``seconds`` of the reference log, in order, recorded through the replay's own clock."""
+    ``seconds`` of the reference ``log``, in order, recorded through the replay's own clock."""
     from flylog.geometry import relative
     from flylog.io.pairing import pair_stereo
     from flylog.io.reader import open_log
@@ -310,7 +307,7 @@ def _log_calls(seconds: float) -> tuple[StereoRig, list[tuple[str, object]]]:
     from flylog.replay.run import clock_config
     from flylog.sensors import OdomReading
 
-    reader = open_log(LOG)
+    reader = open_log(log)
     inputs = replay_inputs(reader, goal=None)
     config = ReplayConfig(generations_per_frame=10)
     calls: list[tuple[str, object]] = []
@@ -349,13 +346,13 @@ def _log_calls(seconds: float) -> tuple[StereoRig, list[tuple[str, object]]]:
     return inputs.rig, calls
 
 
-def _log_rhythm_figures() -> list[dict]:
+def _log_rhythm_figures(out_dir: Path) -> list[dict]:
     """Issue 4's rhythm on real data: the engine's CPU time per generation (this thread's,
     so other processes' load counts less) over the first 10 s of the reference log, every
     call the replay makes (images, sonar, odometry, steps, a snapshot per generation)."""
-    if not LOG.exists():
-        return []
-    rig, calls = _log_calls(10.0)
+    from tests.benchmarks.bench_replay import reference_log
+
+    rig, calls = _log_calls(reference_log(out_dir), 10.0)
 
     def replay() -> tuple[float, int]:
         engine = FlyEngine(EngineConfig(), rig, np.random.default_rng(0))
@@ -395,6 +392,6 @@ def run(out_dir: Path) -> list[dict]:
         _fitness_figures(pair, rig)
         + _generation_figures(pair, depth, reading, rig)
         + _profile_figures(pair, reading, rig)
-        + _log_rhythm_figures()
+        + _log_rhythm_figures(out_dir)
         + _compile_figures()
     )

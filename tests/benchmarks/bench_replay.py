@@ -53,6 +53,11 @@ def _log(out_dir: Path, scene: str, seconds: float) -> Path:
     return path
 
 
+def reference_log(out_dir: Path) -> Path:
+    """The reference log of issue 4 (corridor 640×480 @ 15 Hz, 60 s), made if missing."""
+    return _log(out_dir, "corridor", 60.0)
+
+
 def _peak_rss_mb(log: Path, out: Path) -> float:
     done = subprocess.run(
         [sys.executable, "-c", _MEMORY_CHILD, str(log), str(out)],
@@ -62,7 +67,7 @@ def _peak_rss_mb(log: Path, out: Path) -> float:
 
 
 def _speed(out_dir: Path) -> list[dict]:
-    log = _log(out_dir, "corridor", 60.0)
+    log = reference_log(out_dir)
     replay(_log(out_dir, "corridor", 1.0), out_dir / "bench_replay_warm.mcap", REFERENCE)
     summary = replay(log, out_dir / "bench_replay_run.mcap", REFERENCE)
     speed = summary.log_duration / summary.wall_seconds
@@ -321,7 +326,7 @@ def _reading_allocator(log: Path) -> list[dict]:
 
 
 def _overheads(out_dir: Path) -> list[dict]:
-    log = _log(out_dir, "corridor", 60.0)
+    log = reference_log(out_dir)
     figures = [_overlay_encoding(), _path_encoding()]
     run = out_dir / "bench_replay_run.mcap"
     if run.exists():  # written by _speed
