@@ -1,8 +1,8 @@
 """flylog.metrics: scoring runs against the ground truth of their sensor logs.
 
 - ``truth``: scene, rig and true/odometric trajectories of a sensor log.
-- ``flies``: precision, recall, F-score, depth error of one snapshot (definitions there);
-  ``snapshots``: the same scores for a batch of snapshots at once (what ``score_run`` uses).
+- ``flies``: precision, recall, F-score, depth error of fly snapshots (definitions there),
+  scored a batch of snapshots at once (``score_snapshots``, what ``score_run`` uses).
 - ``obstacles``: per-obstacle detection latency. ``trajectory``: ATE, RPE, path, goal.
 - ``score``: ``score_run`` / ``write_metrics`` (``flylog metrics``); ``tables``: the schemas.
 - ``compare``: ``compare_files`` with per-metric tolerances (``flylog compare``).

@@ -34,9 +34,8 @@ from flylog.io.reader import LogReader
 from flylog.io.records import LogMessage
 from flylog.metrics import tables
 from flylog.metrics.config import MetricsConfig
-from flylog.metrics.flies import f_score, ratio
+from flylog.metrics.flies import f_score, ratio, score_snapshots
 from flylog.metrics.obstacles import detect_obstacles
-from flylog.metrics.snapshots import score_snapshots
 from flylog.metrics.trajectory import (
     PoseInterpolator,
     associate,
@@ -57,7 +56,7 @@ _MAX_MATCH_NS = 20_000_000
 # 5000 flies is ~100 kB): the run's chunks decompress and pass their CRC checks, which
 # release the GIL, while the truth is read, the renderer's kernels load and views render.
 _READ_AHEAD = 64
-# Snapshots scored together (flylog.metrics.snapshots), at most ~4 M view pixels at once
+# Snapshots scored together (flylog.metrics.flies.score_snapshots), at most ~4 M view pixels at once
 # (64 views of 160x120 blocks; 13 per-pixel 640x480 views).
 _BATCH = 64
 _BATCH_PIXELS = 1 << 22

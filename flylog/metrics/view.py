@@ -5,9 +5,8 @@ but the metrics need neither colour nor every pixel. The view is rendered with t
 own rig at 1/k of its width, height and focal length (k from ``MetricsConfig.truth_width``):
 that rig's pixel (i, j) is the ray through the centre of the k×k pixel block (i, j) of the
 full image, so the coarse view is the full view sampled at block centres, at 1/k² of the
-rays. ``score_flies(..., block=k)`` reads it through ``flylog.metrics.flies.view_at`` (and
-``score_snapshots`` through its batched twin): a pixel sees its block's surface, at a depth
-interpolated between block centres.
+rays. ``flylog.metrics.flies`` reads it (``views_at``, ``block=k``): a pixel sees its block's
+surface, at a depth interpolated between block centres.
 """
 
 from __future__ import annotations

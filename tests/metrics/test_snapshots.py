@@ -1,6 +1,8 @@
-"""Batched snapshot scores (``score_snapshots``) against the per-snapshot reference
-(``score_flies``): identical values, field by field, on rendered views and on hand-made
-views with every path of the code (blocks, boundaries, partial cells, empty snapshots)."""
+"""Batched snapshot scores (``score_snapshots``) against each snapshot scored alone
+(``score_flies``, a batch of one): identical values, field by field, on rendered views and
+on hand-made views with every path of the code (blocks, boundaries, partial cells, empty
+snapshots), so no snapshot's score depends on the others in its batch. The definitions
+themselves are pinned by known geometry in test_flies.py and test_view.py."""
 
 from __future__ import annotations
 
@@ -12,8 +14,7 @@ import pytest
 
 from flylog.geometry import Pose2D, StereoRig
 from flylog.metrics.config import MetricsConfig
-from flylog.metrics.flies import FlyScore, score_flies, view_at
-from flylog.metrics.snapshots import score_snapshots, views_at
+from flylog.metrics.flies import FlyScore, score_flies, score_snapshots, view_at, views_at
 from flylog.metrics.view import TrueViews
 
 
