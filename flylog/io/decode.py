@@ -7,11 +7,13 @@ Arrays over a message's bytes are read-only zero-copy views where the layout all
 from __future__ import annotations
 
 import math
+import struct
 from collections.abc import Callable
 from types import MappingProxyType
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
+from google.protobuf import descriptor_pb2
 
 from flylog.errors import LogError
 from flylog.geometry import Pose2D
@@ -66,6 +68,101 @@ def image(msg: Any) -> np.ndarray:
         return np.ndarray((h, w), dtype=np.uint8, buffer=data, strides=(step, 1))
     view = np.ndarray((h, w, 3), dtype=np.uint8, buffer=data, strides=(step, 3, 1))
     return view[..., ::-1] if msg.encoding == "bgr8" else view
+
+
+class RawImageFields(NamedTuple):
+    """What :func:`image` reads of a foxglove.RawImage, as :func:`raw_image_fields` parses
+    it (``data`` a view of the message bytes, not a copy)."""
+
+    width: int
+    height: int
+    encoding: str
+    step: int
+    data: memoryview
+
+
+# foxglove.RawImage as Foxglove's schema numbers it: (name, field number, descriptor type)
+_FOXGLOVE_RAW_IMAGE = frozenset(
+    {
+        ("timestamp", 1, descriptor_pb2.FieldDescriptorProto.TYPE_MESSAGE),
+        ("frame_id", 7, descriptor_pb2.FieldDescriptorProto.TYPE_STRING),
+        ("width", 2, descriptor_pb2.FieldDescriptorProto.TYPE_FIXED32),
+        ("height", 3, descriptor_pb2.FieldDescriptorProto.TYPE_FIXED32),
+        ("encoding", 4, descriptor_pb2.FieldDescriptorProto.TYPE_STRING),
+        ("step", 5, descriptor_pb2.FieldDescriptorProto.TYPE_FIXED32),
+        ("data", 6, descriptor_pb2.FieldDescriptorProto.TYPE_BYTES),
+    }
+)
+_FIXED32 = struct.Struct("<I")
+_RAW_IMAGE_FIXED32 = MappingProxyType({2: "width", 3: "height", 5: "step"})
+
+
+def is_foxglove_raw_image(schema_data: bytes) -> bool:
+    """Whether a protobuf schema (a FileDescriptorSet) defines foxglove.RawImage with
+    Foxglove's fields, which :func:`raw_image_fields` parses."""
+    try:
+        files = descriptor_pb2.FileDescriptorSet.FromString(schema_data).file
+    except Exception:  # not a descriptor set: leave it to the generic decoder
+        return False
+    for f in files:
+        for m in f.message_type:
+            if f.package == "foxglove" and m.name == "RawImage":
+                return {(x.name, x.number, x.type) for x in m.field} == _FOXGLOVE_RAW_IMAGE
+    return False
+
+
+def _varint(view: memoryview, at: int) -> tuple[int, int]:
+    value, shift = 0, 0
+    while True:
+        if at >= len(view) or shift > 63:
+            msg = "image message cut inside a varint"
+            raise LogError(msg)
+        byte = view[at]
+        at += 1
+        value |= (byte & 0x7F) << shift
+        if byte < 0x80:
+            return value, at
+        shift += 7
+
+
+def raw_image_fields(data: bytes | memoryview) -> RawImageFields:
+    """A foxglove.RawImage's serialised bytes (Foxglove's field numbers,
+    :func:`is_foxglove_raw_image`) → the fields :func:`image` reads, its pixels a view of
+    ``data``: protobuf's parser copies them, ~1 MB a 640×480 image, holding the GIL. Other
+    fields are skipped; a repeated field keeps its last value, as protobuf does."""
+    view = memoryview(data)
+    fields: dict[str, Any] = {"width": 0, "height": 0, "step": 0, "encoding": ""}
+    pixels = view[:0]
+    at, end = 0, len(view)
+    while at < end:
+        key, at = _varint(view, at)
+        number, wire = key >> 3, key & 7
+        if wire == 0:
+            _, at = _varint(view, at)
+        elif wire == 5:
+            if at + 4 > end:
+                break
+            if number in _RAW_IMAGE_FIXED32:
+                fields[_RAW_IMAGE_FIXED32[number]] = _FIXED32.unpack_from(view, at)[0]
+            at += 4
+        elif wire == 1:
+            at += 8
+        elif wire == 2:
+            length, at = _varint(view, at)
+            if at + length > end:
+                break
+            if number == 4:
+                fields["encoding"] = str(view[at : at + length], "utf-8")
+            elif number == 6:
+                pixels = view[at : at + length]
+            at += length
+        else:
+            msg = f"image message has a field of wire type {wire}"
+            raise LogError(msg)
+    if at != end:
+        msg = "image message is cut short"
+        raise LogError(msg)
+    return RawImageFields(data=pixels, **fields)
 
 
 def calibration(msg: Any) -> Calibration:

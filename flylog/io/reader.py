@@ -21,7 +21,8 @@ from mcap_protobuf.decoder import DecoderFactory
 
 from flylog.errors import LogError
 from flylog.io import contract
-from flylog.io.decode import DECODERS
+from flylog.io.chunks import indexed_messages
+from flylog.io.decode import DECODERS, image, is_foxglove_raw_image, raw_image_fields
 from flylog.io.pairing import pair_stereo
 from flylog.io.readahead import read_ahead as read_ahead_of
 from flylog.io.records import LogAttachment, LogMessage, TopicInfo
@@ -167,7 +168,8 @@ class LogReader:
 
     def raw_messages(self, topics: Iterable[str] | None = None) -> Iterator[RawMessage]:
         """Undecoded messages in log-time order (a TruncatedLogWarning at the end if the log
-        is damaged)."""
+        is damaged). A message's ``data`` is a read-only memoryview of its chunk
+        (:mod:`flylog.io.chunks`): ``bytes(data)`` to keep it apart."""
         damage: list[str] = []
         yield from self._raw(topics, damage)
         for msg in damage:
@@ -179,18 +181,16 @@ class LogReader:
         wanted = None if topics is None else frozenset(topics)
         with self.path.open("rb") as fh:
             if self._summary is not None:
-                found = SeekingReader(fh, validate_crcs=True).iter_messages(
-                    topics=None if wanted is None else sorted(wanted), log_time_order=True
-                )
+                found = indexed_messages(fh, self._summary, wanted)
                 while True:
                     try:
-                        schema, channel, message = next(found)
+                        raw = next(found)
                     except StopIteration:
                         return
                     except Exception as exc:  # a finished log damaged inside: name it
                         msg = f"{self.path}: damaged log ({type(exc).__name__}: {exc})"
                         raise LogError(msg) from None
-                    yield RawMessage(schema, channel, message)
+                    yield raw
             state = ScanState()
             count = 0
             for raw in in_log_time_order(scan_messages(fh, state, topics=wanted), MAX_WRITE_LAG_NS):
@@ -226,6 +226,10 @@ class LogReader:
             yield m.value
 
 
+def _json_value(data: bytes | memoryview) -> Any:
+    return json.loads(bytes(data))  # json reads bytes, not memoryviews
+
+
 def _schema_name(schema: Schema | None) -> str:
     return "" if schema is None else schema.name
 
@@ -241,7 +245,7 @@ class _Decoding:
     def _decoder(self, schema: Schema | None, channel: Channel) -> Callable[[bytes], Any]:
         parse: Callable[[bytes], Any] | None
         if channel.message_encoding == contract.JSON_MESSAGE_ENCODING:
-            parse = json.loads
+            parse = _json_value
         else:
             parse = self._protobuf.decoder_for(channel.message_encoding, schema)
         if parse is None:
@@ -253,6 +257,13 @@ class _Decoding:
         convert = DECODERS.get(_schema_name(schema))
         if convert is None:
             return parse
+        if (
+            convert is image
+            and channel.message_encoding == contract.PROTOBUF
+            and schema is not None
+            and is_foxglove_raw_image(schema.data)
+        ):
+            return lambda data: image(raw_image_fields(data))  # pixels not copied
         return lambda data: convert(parse(data))
 
     def __call__(self, raw: RawMessage) -> LogMessage:

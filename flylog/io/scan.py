@@ -13,12 +13,15 @@ import itertools
 import struct
 from collections.abc import Iterator
 from dataclasses import dataclass, field
-from typing import IO, NamedTuple
+from typing import IO
 
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
-from mcap.records import Attachment, Channel, Chunk, Message, Metadata, Schema
-from mcap.stream_reader import breakup_chunk
+from mcap.records import Attachment, Channel, Message, Metadata, Schema
+
+from flylog.io.chunks import RawMessage, chunk_records
+
+__all__ = ["MAGIC", "RawMessage", "ScanState", "TruncatedLogWarning", "scan_messages"]
 
 MAGIC = b"\x89MCAP0\r\n"
 # A record longer than this is taken for corruption rather than read into memory.
@@ -27,14 +30,6 @@ MAX_RECORD_BYTES = 1 << 31
 
 class TruncatedLogWarning(UserWarning):
     """A log ended early (unfinished or cut); everything before the damage was read."""
-
-
-class RawMessage(NamedTuple):
-    """A message as stored: its schema and channel records and the undecoded record."""
-
-    schema: Schema | None
-    channel: Channel
-    message: Message
 
 
 @dataclass
@@ -72,9 +67,9 @@ def _read_record(fh: IO[bytes], offset: int) -> tuple[int, bytes] | None:
 
 def _parse(opcode: int, body: bytes) -> list[object]:
     """The records a record body holds (a chunk holds several)."""
-    stream = ReadDataStream(io.BytesIO(body))
     if opcode == Opcode.CHUNK:
-        return list(breakup_chunk(Chunk.read(stream), validate_crc=True))
+        return [record for _, record in chunk_records(body)]
+    stream = ReadDataStream(io.BytesIO(body))
     if opcode == Opcode.MESSAGE:
         return [Message.read(stream, len(body))]
     readers = {

@@ -22,6 +22,7 @@ from flylog.fly.engine import FlyEngine, GenerationStats
 from flylog.fly.population import Population
 from flylog.geometry import Pose2D, StereoRig, relative, transform_points_2d
 from flylog.io import contract, encode
+from flylog.io.readahead import lower_thread_priority
 from flylog.planner import Command, HarmonicPlanner, Status
 from flylog.replay.config import ReplayConfig, Stereo
 from flylog.sensors import OdomReading, SonarReading, StereoPair
@@ -91,14 +92,15 @@ class FlyPipeline:
     per-step table per planner tick. ``write_tf`` is off in the closed loop, where the
     simulator already writes odom → base_link.
 
-    With ``planner_thread``, the planner's work (each tick, and the potential and path of
-    each snapshot) runs on a worker thread while the engine goes on (replay: the planner
-    does not feed back into the engine). Its inputs are taken at the virtual time of the
-    tick, the worker runs the jobs in order, and all outputs are written in the order they
-    were asked for, so the output is identical message for message; at most
-    ``MAX_PENDING_JOBS`` wait. :attr:`command` is then the newest command *written*: the
-    closed loop, which needs each command at once, runs without the thread. Call
-    :meth:`flush` when the clock has finished, and :meth:`close` in any case.
+    With ``planner_thread``, the planner's work (each tick, and each snapshot: the flies,
+    the potential and the path), the encoding of every output and its writing run on a
+    worker thread while the engine goes on (replay: the planner does not feed back into the
+    engine); ``write`` and ``on_row`` are then called on that thread only. Inputs are taken
+    at the virtual time of the tick, the worker runs the jobs in order, and all outputs are
+    written in the order they were asked for, so the output is identical message for
+    message; at most ``MAX_PENDING_JOBS`` wait. :attr:`command` is then the newest command
+    *written*: the closed loop, which needs each command at once, runs without the thread.
+    Call :meth:`flush` when the clock has finished, and :meth:`close` in any case.
     """
 
     def __init__(
@@ -138,8 +140,13 @@ class FlyPipeline:
         self._evaluations = 0
         self.command = Command(0.0, 0.0, Status.DRIVING)
         self.snapshots = 0
-        self._worker = ThreadPoolExecutor(1, "flylog-planner") if planner_thread else None
-        self._pending: deque[Future[_Outputs]] = deque()  # outputs in the order asked for
+        # the worker runs nicer than the engine's thread (see flylog.io.readahead)
+        self._worker = (
+            ThreadPoolExecutor(1, "flylog-planner", initializer=lower_thread_priority)
+            if planner_thread
+            else None
+        )
+        self._pending: deque[Future[None]] = deque()  # the worker's jobs, in the order asked for
 
     # --- the clock's Pipeline protocol -----------------------------------------------------
 
@@ -212,9 +219,9 @@ class FlyPipeline:
         self._submit(self._run_tick, tick)
 
     def flush(self) -> None:
-        """Write every output still waiting for the planner's worker thread."""
+        """Wait until the worker thread has written every output asked for."""
         while self._pending:
-            self._emit(self._pending.popleft().result())
+            self._pending.popleft().result()
 
     def close(self) -> None:
         """Stop the planner's worker thread (after :meth:`flush`, or to abandon a run)."""
@@ -224,23 +231,19 @@ class FlyPipeline:
             self._pending.clear()
 
     def _submit(self, job: Callable[..., _Outputs], *args: Any) -> None:
-        """Run ``job`` (planner work) on the worker, or at once without one; its outputs are
-        written after everything asked for before it."""
+        """Run ``job`` (work the engine does not wait for) and write its outputs: on the
+        worker, which runs the jobs in the order asked for and writes each one's outputs as
+        it ends (so the engine's thread neither encodes nor writes them), or at once without
+        one. A job's error is raised here, at a later call, or by :meth:`flush`."""
         if self._worker is None:
             self._emit(job(*args))
             return
-        self._pending.append(self._worker.submit(job, *args))
+        self._pending.append(self._worker.submit(self._run_and_emit, job, args))
         while self._pending and (self._pending[0].done() or len(self._pending) > MAX_PENDING_JOBS):
-            self._emit(self._pending.popleft().result())
+            self._pending.popleft().result()
 
-    def _queue(self, outputs: _Outputs) -> None:
-        """Outputs made now, written after everything asked for before them."""
-        if not self._pending:
-            self._emit(outputs)
-            return
-        done: Future[_Outputs] = Future()
-        done.set_result(outputs)
-        self._pending.append(done)
+    def _run_and_emit(self, job: Callable[..., _Outputs], args: tuple[Any, ...]) -> None:
+        self._emit(job(*args))
 
     def _emit(self, outputs: _Outputs) -> None:
         for topic, t_ns, message in outputs.messages:
@@ -294,10 +297,18 @@ class FlyPipeline:
 
     def _snapshot(self, t_ns: int) -> None:
         self.snapshots += 1
-        pop = self._published_population()
+        pop = self._published_population()  # immutable: the worker may read it
+        self._submit(self._snapshot_outputs, t_ns, pop, self._published_pose, self._odom.pose)
+
+    def _snapshot_outputs(
+        self, t_ns: int, pop: Population | None, published_pose: Pose2D, robot_pose: Pose2D
+    ) -> _Outputs:
+        """A snapshot's messages: the flies and their overlay (when a population was
+        published), then the planner's potential and path."""
+        messages: list[tuple[str, int, Any]] = []
         if pop is not None:
             uv, colours = self._overlay(pop)
-            messages = [
+            messages += [
                 (
                     contract.FLIES,
                     t_ns,
@@ -306,10 +317,9 @@ class FlyPipeline:
                 (contract.FLIES_OVERLAY, t_ns, encode.image_annotations(uv, colours, t_ns)),
             ]
             if self._write_tf:
-                transform = encode.odom_transform(self._published_pose)
+                transform = encode.odom_transform(published_pose)
                 messages.append((contract.TF, t_ns, encode.frame_transforms([transform], t_ns)))
-            self._queue(_Outputs(messages))
-        self._submit(self._planner_snapshot, t_ns, self._odom.pose)
+        return _Outputs(messages + self._planner_snapshot(t_ns, robot_pose).messages)
 
     def _planner_snapshot(self, t_ns: int, robot_pose: Pose2D) -> _Outputs:
         """The potential and the path the robot would follow from ``robot_pose``, now."""

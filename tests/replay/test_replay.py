@@ -2,7 +2,10 @@
 
 import dataclasses
 import json
+import os
 import re
+import sys
+import threading
 from pathlib import Path
 
 import pyarrow.parquet as pq
@@ -242,3 +245,37 @@ def test_copying_the_published_population_only_when_read_changes_no_output(overr
     lazy = _pipeline_outputs(False, config)
     assert lazy == _pipeline_outputs(False, config, copy_at_publish=True)
     assert len(lazy[0]) > 50
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="per-thread nice is Linux's")
+def test_planner_worker_writes_every_output_on_its_own_nicer_thread():
+    from flylog.geometry import Pose2D
+    from flylog.io.readahead import HELPER_NICENESS
+    from flylog.replay.inputs import replay_inputs
+    from flylog.replay.pipeline import PLANNER_TICK, SNAPSHOT_TICK, FlyPipeline
+
+    def nice() -> int:
+        return os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
+
+    seen = []
+
+    def write(topic, t_ns, message):
+        seen.append((topic, threading.current_thread() is threading.main_thread(), nice()))
+
+    rig = replay_inputs(open_log(CORRIDOR), goal=None).rig
+    pipeline = FlyPipeline(
+        SMALL, rig, Pose2D(0.0, 0.0, 0.0), (3.0, 0.0), write, on_row=lambda row: None,
+        planner_thread=True,
+    )  # fmt: skip
+    try:
+        pipeline.tick(PLANNER_TICK, 0)
+        pipeline.tick(SNAPSHOT_TICK, 0)
+        pipeline.flush()
+    finally:
+        pipeline.close()
+    worker = min(19, nice() + HELPER_NICENESS)
+    assert seen == [
+        (contract.PLANNER_COMMAND, False, worker),
+        (contract.PLANNER_POTENTIAL, False, worker),
+        (contract.PLANNER_PATH, False, worker),
+    ]
