@@ -107,7 +107,7 @@ def fly_snapshots(run: Path) -> tuple[np.ndarray, list[np.ndarray]]:
     times, clouds = [], []
     for m in reader.messages([contract.FLIES]):
         cloud = m.value
-        keep = rule.mask(cloud.xyz, cloud.fitness, cloud.age)
+        keep = rule.mask(cloud.xyz, cloud.fitness, cloud.age, cloud.distinct)
         times.append(m.log_time_ns)
         clouds.append(np.array(cloud.xyz[keep], dtype=float))
     return np.array(times, dtype=np.int64), clouds

@@ -35,7 +35,7 @@ class EngineConfig:
         7, help="side of the square fitness neighbourhood (odd)", unit="px", min=3, max=31
     )
     gradient: Gradient = param(
-        Gradient.NORM,
+        Gradient.HORIZONTAL,
         help="fitness numerator G: sqrt of the Sobel gradient norm (norm, the paper's) or of "
         "|gx| alone (horizontal: G = 0 on horizontal edges, which carry no disparity)",
     )

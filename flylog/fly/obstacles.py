@@ -7,8 +7,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from flylog.config import param
+from flylog.errors import ConfigError
+from flylog.fly.config import Backend, EngineConfig
+from flylog.fly.distinct import distinctness
 from flylog.fly.engine import FlyEngine
 from flylog.fly.population import Population
+from flylog.geometry import StereoRig
+from flylog.sensors import StereoPair
 
 
 def obstacle_mask(
@@ -71,8 +76,94 @@ class ObstacleFlies:
         unit="generations",
         min=0,
     )
+    min_distinctness: float = param(
+        1.5,
+        help="and, when above 0, a distinctness (flylog.fly.distinct) of at least this: the "
+        "fly's vision fitness over the best one of its left pixel at the disparities shifted "
+        "by distinct_shifts. It rejects flies on stretches that match at many depths "
+        "(horizontal edges, smooth sky or ground). 0 turns the test off (the paper's rule)",
+        min=0.0,
+    )
+    distinct_shifts: tuple[int, ...] = param(
+        (-4, -2, 2, 4),
+        help="disparity shifts at which a fly's rivals along the epipolar line are scored",
+        unit="px",
+    )
 
-    def mask(self, xyz: np.ndarray, fitness: np.ndarray, age: np.ndarray | None) -> np.ndarray:
+    def __post_init__(self) -> None:
+        if self.min_distinctness > 0 and (not self.distinct_shifts or 0 in self.distinct_shifts):
+            msg = (
+                "obstacles.distinct_shifts must be non-zero disparity shifts (px), at least "
+                f"one, when min_distinctness > 0; got {list(self.distinct_shifts)}"
+            )
+            raise ConfigError(msg)
+
+    @property
+    def uses_distinctness(self) -> bool:
+        return self.min_distinctness > 0
+
+    def mask(
+        self,
+        xyz: np.ndarray,
+        fitness: np.ndarray,
+        age: np.ndarray | None,
+        distinct: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """(N,) bool: the obstacle flies; ``distinct`` (from :meth:`distinct_of`) is required
+        when the rule uses distinctness."""
+        keep = self._candidates(xyz, fitness, age)
+        if self.uses_distinctness:
+            if distinct is None:
+                msg = (
+                    f"this obstacle rule needs each fly's distinctness (min_distinctness "
+                    f"{self.min_distinctness:g}), and none was given (a /flies cloud without "
+                    "a 'distinct' field?)"
+                )
+                raise ValueError(msg)
+            keep &= np.asarray(distinct) >= self.min_distinctness  # NaN: not measured
+        return keep
+
+    def distinct_of(
+        self,
+        xyz: np.ndarray,
+        fitness: np.ndarray,
+        age: np.ndarray | None,
+        pair: StereoPair | None,
+        rig: StereoRig,
+        engine: EngineConfig,
+    ) -> np.ndarray | None:
+        """(N,) float: the distinctness of the flies the rule's other tests keep, measured on
+        ``pair`` (the images their fitness was), NaN for the others; None when the rule does
+        not use distinctness. Costs ``1 + len(distinct_shifts)`` fitness evaluations a fly
+        measured, with the engine's fitness (window, guard, gradient)."""
+        if not self.uses_distinctness:
+            return None
+        out = np.full(len(fitness), np.nan)
+        if pair is None:
+            return out
+        measured = np.flatnonzero(self._candidates(xyz, fitness, age))
+        out[measured] = distinctness(
+            pair.left, pair.right, np.asarray(xyz)[measured], rig, engine.window, engine.guard,
+            self.distinct_shifts, gradient=engine.gradient,
+            use_numba=engine.backend is Backend.NUMBA,
+        )  # fmt: skip
+        return out
+
+    def distinct_evaluations(
+        self, xyz: np.ndarray, fitness: np.ndarray, age: np.ndarray | None
+    ) -> int:
+        """The fitness evaluations :meth:`distinct_of` makes for these flies."""
+        if not self.uses_distinctness:
+            return 0
+        return int(self._candidates(xyz, fitness, age).sum()) * (1 + len(self.distinct_shifts))
+
+    def most_distinct_evaluations(self, flies: int) -> int:
+        """The most :meth:`distinct_evaluations` can be for a population of ``flies``."""
+        return flies * (1 + len(self.distinct_shifts)) if self.uses_distinctness else 0
+
+    def _candidates(
+        self, xyz: np.ndarray, fitness: np.ndarray, age: np.ndarray | None
+    ) -> np.ndarray:
         return obstacle_mask(
             xyz, fitness, quantile=self.quantile, ground_margin=self.ground_margin,
             age=age, min_age=self.min_age,

@@ -199,7 +199,7 @@ def _field_view(data: bytes, count: int, stride: int, field: Any) -> np.ndarray:
 
 
 def fly_cloud(msg: Any) -> FlyCloud:
-    """PointCloud → xyz (N, 3) and fitness (N,); fitness is NaN if the cloud has none."""
+    """PointCloud → xyz (N, 3), fitness (N,) (NaN if the cloud has none), age and distinct."""
     fields = {f.name: f for f in msg.fields}
     missing = [n for n in ("x", "y", "z") if n not in fields]
     if missing or msg.point_stride <= 0:
@@ -225,8 +225,11 @@ def fly_cloud(msg: Any) -> FlyCloud:
         fitness = _field_view(data, count, stride, fields["fitness"])
     else:
         fitness = np.full(count, np.nan, dtype=np.float32)
-    age = _field_view(data, count, stride, fields["age"]) if "age" in fields else None
-    return FlyCloud(xyz, fitness, age)
+    age, distinct = (
+        _field_view(data, count, stride, fields[name]) if name in fields else None
+        for name in ("age", "distinct")
+    )
+    return FlyCloud(xyz, fitness, age, distinct)
 
 
 def overlay(msg: Any) -> Overlay:

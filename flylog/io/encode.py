@@ -188,9 +188,11 @@ def point_cloud(
     stamp_ns: int,
     frame_id: str,
     age: np.ndarray | None = None,
+    *,
+    distinct: np.ndarray | None = None,
 ) -> fm.PointCloud:
     """Packed little-endian float32 fields x, y, z, fitness and, given, age (generations
-    survived): 16 or 20 bytes a point."""
+    survived) and distinct (distinctness, NaN where not measured): 16 to 24 bytes a point."""
     xyz = np.asarray(xyz)
     fitness = np.asarray(fitness)
     if xyz.ndim != 2 or xyz.shape[1] != 3 or fitness.shape != (xyz.shape[0],):
@@ -201,6 +203,9 @@ def point_cloud(
     if age is not None:
         names += ("age",)
         columns.append(np.asarray(age).reshape(-1, 1))
+    if distinct is not None:
+        names += ("distinct",)
+        columns.append(np.asarray(distinct).reshape(-1, 1))
     packed = np.empty((xyz.shape[0], len(names)), dtype="<f4")
     packed[:] = np.concatenate(columns, axis=1)
     return fm.PointCloud(

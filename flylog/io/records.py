@@ -52,11 +52,13 @@ class Calibration(NamedTuple):
 
 
 class FlyCloud(NamedTuple):
-    """A decoded PointCloud: xyz (N, 3), fitness (N,) and, if the cloud has it, age (N,)."""
+    """A decoded PointCloud: xyz (N, 3), fitness (N,) and, if the cloud has them, age (N,)
+    and distinct (N,: distinctness, NaN where not measured)."""
 
     xyz: np.ndarray
     fitness: np.ndarray
     age: np.ndarray | None = None
+    distinct: np.ndarray | None = None
 
 
 class Overlay(NamedTuple):

@@ -103,9 +103,11 @@ def _number(meta: dict[str, str], key: str, kind: type) -> Any:
 
 
 def run_facts(reader: LogReader, config: MetricsConfig) -> RunFacts:
-    """The obstacle rule and run statistics of a run file (the default rule if it has none)."""
+    """The obstacle rule and run statistics of a run file. A run without flylog's
+    configuration, or written before the rule measured distinctness, is scored by the
+    paper's rule (no distinctness: its clouds carry none)."""
     meta = reader.metadata().get(contract.REPLAY_METADATA, {})
-    rule = ObstacleFlies()
+    rule = ObstacleFlies(min_distinctness=0.0)
     if "config" in meta:
         try:
             table = json.loads(meta["config"]).get("obstacles", {})
@@ -113,6 +115,7 @@ def run_facts(reader: LogReader, config: MetricsConfig) -> RunFacts:
             msg = f"{reader.path}: metadata {contract.REPLAY_METADATA}.config is not JSON ({exc})"
             raise LogError(msg) from None
         source = f"{reader.path}: metadata {contract.REPLAY_METADATA}.config"
+        table = {"min_distinctness": 0.0, **table}
         rule = from_mapping(ObstacleFlies, table, source=source, prefix="obstacles")
     return RunFacts(
         rule=rule,
@@ -269,8 +272,15 @@ def _scored(
             )
             raise LogError(msg)
         cloud = m.value
+        if facts.rule.uses_distinctness and cloud.distinct is None:
+            msg = (
+                f"{reader.path}: the run's obstacle rule reads each fly's distinctness, but "
+                f"its /flies snapshot at {t / 1e9:.3f} s has no 'distinct' field: was the run "
+                "written by another flylog version?"
+            )
+            raise LogError(msg)
         pose = true_pose(np.array([t]))[0]
-        keep = facts.rule.mask(cloud.xyz, cloud.fitness, cloud.age)
+        keep = facts.rule.mask(cloud.xyz, cloud.fitness, cloud.age, cloud.distinct)
         pending.append(
             _Snapshot(t, pose, cloud.xyz[keep], len(cloud.xyz), views.view(Pose2D(*pose)))
         )

@@ -37,6 +37,7 @@ from flylog.planner.steering import (
     PathEnd,
     PlannedPath,
     ProgressMonitor,
+    SmoothedDirection,
     Status,
     speed_factor,
     unicycle_command,
@@ -103,6 +104,7 @@ class HarmonicPlanner:
         self._field_cache: np.ndarray | None = None
         self._apply_dirichlet()
         self._monitor = ProgressMonitor(config.stuck_time, config.stuck_progress)
+        self._heading = SmoothedDirection(config.heading_smoothing)
         self._grad_cache: tuple[np.ndarray, np.ndarray] | None = None
 
     @classmethod
@@ -270,7 +272,7 @@ class HarmonicPlanner:
         if distance <= cfg.goal_approach_distance:
             direction = (dx, dy)
         else:
-            direction = self.steering_direction(robot_pose)
+            direction = self._heading.update(self.steering_direction(robot_pose), t)
         linear, angular = unicycle_command(
             robot_pose,
             direction,

@@ -76,6 +76,39 @@ def unicycle_command(
     return linear, angular
 
 
+@dataclass
+class SmoothedDirection:
+    """A direction low-passed in time: each update moves the unit vector held towards the
+    new direction by ``1 − exp(−dt / time_constant)`` and renormalises (a time constant of 0
+    passes every direction through). Where the harmonic field is nearly flat, −∇U at the
+    robot swings with every obstacle cell that appears or clears nearby; steering after
+    each swing turns the robot back and forth, and the odometry's heading noise grows with
+    every radian turned."""
+
+    time_constant: float
+    _unit: tuple[float, float] | None = None
+    _t: float = 0.0
+
+    def update(self, direction: tuple[float, float], t: float) -> tuple[float, float]:
+        """The smoothed direction (unit length, or ``direction`` itself if it is flat or
+        smoothing is off) after ``direction`` at time ``t`` (s)."""
+        norm = math.hypot(*direction)
+        if self.time_constant <= 0.0 or norm <= FLAT_GRADIENT:
+            return direction
+        new = (direction[0] / norm, direction[1] / norm)
+        if self._unit is None:
+            self._unit, self._t = new, t
+            return new
+        a = 1.0 - math.exp(-max(0.0, t - self._t) / self.time_constant)
+        x = self._unit[0] + a * (new[0] - self._unit[0])
+        y = self._unit[1] + a * (new[1] - self._unit[1])
+        n = math.hypot(x, y)
+        self._t = t
+        if n > FLAT_GRADIENT:  # exactly opposite halves cancel: keep the old direction
+            self._unit = (x / n, y / n)
+        return self._unit
+
+
 def speed_factor(distance: float, slowdown: float, floor: float = 0.0) -> float:
     """The share of the full forward speed at ``distance`` from what slows the robot down:
     ``distance / slowdown`` clamped to [floor, 1] (1 when ``slowdown`` is 0: no slow-down)."""

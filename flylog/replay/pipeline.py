@@ -44,6 +44,7 @@ class _TickInputs:
     generation: int
     evaluations: int
     odom: OdomReading  # the newest odometry delivered
+    pair: StereoPair | None  # the images the population was scored on (None: none yet)
 
 
 @dataclass(frozen=True)
@@ -137,6 +138,13 @@ class FlyPipeline:
         self._published_pose = start
         self._published_image_ns = -1
         self._published_generation = 0
+        self._pair: StereoPair | None = None  # newest stereo pair delivered
+        self._published_pair: StereoPair | None = None  # ... when the population was published
+        self._evidence: tuple[int, np.ndarray, np.ndarray | None] | None = None  # _obstacles
+        # Distinctness is measured once a published population, on the worker; its fitness
+        # evaluations are counted here when asked for and charged to the next generation.
+        self._charged_generation = -1
+        self._owed_evaluations = 0
         self._evaluations = 0
         self.command = Command(0.0, 0.0, Status.DRIVING)
         self.snapshots = 0
@@ -157,6 +165,7 @@ class FlyPipeline:
             self._published_population()
         if isinstance(record, StereoPair):
             self.engine.set_images(record)
+            self._pair = record
         elif isinstance(record, SonarReading):
             self.engine.set_sonar(record)
         elif isinstance(record, OdomReading):
@@ -174,7 +183,8 @@ class FlyPipeline:
         elif self._published_live:
             self._published_live, self._published_gone = False, True
         self._last_stats = self.engine.step()
-        evals = self._last_stats.evaluations
+        evals = self._last_stats.evaluations + self._owed_evaluations
+        self._owed_evaluations = 0
         self._evaluations += evals
         return evals, self.config.generation_cost_ns(evals)
 
@@ -184,6 +194,7 @@ class FlyPipeline:
         self._published_pose = self._odom.pose
         self._published_image_ns = self._last_stats.image_stamp_ns
         self._published_generation = self._last_stats.generation
+        self._published_pair = self._pair
 
     def _published_population(self) -> Population | None:
         """The newest population published (an immutable copy), as ticks see it."""
@@ -207,14 +218,17 @@ class FlyPipeline:
     # --- planner ---------------------------------------------------------------------------
 
     def _planner_tick(self, t_ns: int) -> None:
+        pop = self._published_population()
+        self._charge_distinctness(pop)
         tick = _TickInputs(
             t_ns,
-            self._published_population(),
+            pop,
             self._published_pose,
             self._published_image_ns,
             self._published_generation,
             self._evaluations,
             self._odom,
+            self._published_pair,
         )
         self._submit(self._run_tick, tick)
 
@@ -259,7 +273,7 @@ class FlyPipeline:
         if pop is None:
             obstacles = np.empty((0, 3))
         else:
-            obstacles = pop.xyz[self.config.obstacles.mask(pop.xyz, pop.fitness, pop.age)]
+            obstacles = pop.xyz[self._obstacles(pop, tick.pair, tick.generation)[0]]
             in_odom = transform_points_2d(tick.published_pose, obstacles[:, :2])
             self.planner.update_obstacles(in_odom, tick.published_pose, self.rig.half_fov)
         change = self.planner.relax()
@@ -298,28 +312,66 @@ class FlyPipeline:
     def _snapshot(self, t_ns: int) -> None:
         self.snapshots += 1
         pop = self._published_population()  # immutable: the worker may read it
-        self._submit(self._snapshot_outputs, t_ns, pop, self._published_pose, self._odom.pose)
+        self._charge_distinctness(pop)
+        published = (self._published_pose, self._published_pair, self._published_generation)
+        self._submit(self._snapshot_outputs, t_ns, pop, *published, self._odom.pose)
 
     def _snapshot_outputs(
-        self, t_ns: int, pop: Population | None, published_pose: Pose2D, robot_pose: Pose2D
+        self,
+        t_ns: int,
+        pop: Population | None,
+        published_pose: Pose2D,
+        pair: StereoPair | None,
+        generation: int,
+        robot_pose: Pose2D,
     ) -> _Outputs:
-        """A snapshot's messages: the flies and their overlay (when a population was
-        published), then the planner's potential and path."""
+        """A snapshot's messages: the flies (with each fly's distinctness when the obstacle
+        rule reads it), their overlay and odom → base_link where they were published (when
+        a population was), then the planner's potential and path."""
         messages: list[tuple[str, int, Any]] = []
         if pop is not None:
+            distinct = None
+            if self.config.obstacles.uses_distinctness:
+                distinct = self._obstacles(pop, pair, generation)[1]
             uv, colours = self._overlay(pop)
+            cloud = encode.point_cloud(
+                pop.xyz, pop.fitness, t_ns, contract.BASE_FRAME, pop.age, distinct=distinct
+            )
             messages += [
-                (
-                    contract.FLIES,
-                    t_ns,
-                    encode.point_cloud(pop.xyz, pop.fitness, t_ns, contract.BASE_FRAME, pop.age),
-                ),
+                (contract.FLIES, t_ns, cloud),
                 (contract.FLIES_OVERLAY, t_ns, encode.image_annotations(uv, colours, t_ns)),
             ]
             if self._write_tf:
                 transform = encode.odom_transform(published_pose)
                 messages.append((contract.TF, t_ns, encode.frame_transforms([transform], t_ns)))
         return _Outputs(messages + self._planner_snapshot(t_ns, robot_pose).messages)
+
+    def _charge_distinctness(self, pop: Population | None) -> None:
+        """Count the fitness evaluations measuring the distinctness of ``pop`` (the published
+        population) will cost, once a publication, to charge them to the next generation."""
+        rule = self.config.obstacles
+        if pop is None or not rule.uses_distinctness:
+            return
+        if self._charged_generation != self._published_generation:
+            self._charged_generation = self._published_generation
+            self._owed_evaluations += rule.distinct_evaluations(pop.xyz, pop.fitness, pop.age)
+
+    def _obstacles(
+        self, pop: Population, pair: StereoPair | None, generation: int
+    ) -> tuple[np.ndarray, np.ndarray | None]:
+        """The obstacle rule's mask of the population published at ``generation``, and the
+        flies' distinctness (None unless the rule reads it), measured once a publication:
+        planner ticks and snapshots of the same population share it (both run in order on
+        the worker thread, or both on the caller's)."""
+        if self._evidence is not None and self._evidence[0] == generation:
+            return self._evidence[1], self._evidence[2]
+        rule = self.config.obstacles
+        distinct = rule.distinct_of(
+            pop.xyz, pop.fitness, pop.age, pair, self.rig, self.config.engine
+        )
+        mask = rule.mask(pop.xyz, pop.fitness, pop.age, distinct)
+        self._evidence = (generation, mask, distinct)
+        return mask, distinct
 
     def _planner_snapshot(self, t_ns: int, robot_pose: Pose2D) -> _Outputs:
         """The potential and the path the robot would follow from ``robot_pose``, now."""

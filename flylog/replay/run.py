@@ -85,7 +85,10 @@ def clock_config(config: ReplayConfig, frame_period_ns: int) -> ClockConfig:
             SNAPSHOT_TICK: round(1e9 / config.snapshot_rate),
         },
         # SGBM's cost is fixed
-        max_generation_cost_ns=config.generation_cost_ns(config.engine.max_evaluations),
+        max_generation_cost_ns=config.generation_cost_ns(
+            config.engine.max_evaluations
+            + config.obstacles.most_distinct_evaluations(config.engine.flies)
+        ),
     )
 
 

@@ -97,7 +97,7 @@ def test_fitness_is_positive_texture_and_age_passes_any_min_age(corridor_frame):
     assert (pop.age == MATCHED_AGE).all() and not pop.stale.any()
     assert (pop.stamp_ns == pair.stamp_ns).all()
     # the obstacle rule's quantile keeps the better-textured share above the ground
-    rule = ObstacleFlies(quantile=0.5, ground_margin=0.05, min_age=1000)
+    rule = ObstacleFlies(quantile=0.5, ground_margin=0.05, min_age=1000, min_distinctness=0.0)
     keep = rule.mask(pop.xyz, pop.fitness, pop.age)
     above = pop.xyz[:, 2] > 0.05
     assert keep.sum() > 0

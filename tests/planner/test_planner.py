@@ -14,10 +14,10 @@ from flylog.planner import (
     RelaxEnd,
     Status,
 )
-from flylog.planner.steering import speed_factor, unicycle_command
+from flylog.planner.steering import SmoothedDirection, speed_factor, unicycle_command
 
-# the paper's field and steering: Dirichlet obstacles, along −∇U at the robot
-PAPER = {"obstacle_weight": 1.0, "lookahead": 0.0}
+# the paper's field and steering: Dirichlet obstacles, along −∇U at the robot, unfiltered
+PAPER = {"obstacle_weight": 1.0, "lookahead": 0.0, "heading_smoothing": 0.0}
 SMALL = PlannerConfig(
     extent=6.0, cell_size=0.1, inflation_margin=0.0, confirm_after_views=1, **PAPER
 )
@@ -479,3 +479,38 @@ def test_lookahead_turns_less_through_the_corridor():
     for end in (end_plain, end_ahead):
         assert math.hypot(end.x - 10.5, end.y) <= plain.config.goal_tolerance
     assert w2_ahead < 0.8 * w2_plain
+
+
+def test_smoothed_direction_follows_a_step_with_its_time_constant():
+    s = SmoothedDirection(0.5)
+    assert s.update((2.0, 0.0), 0.0) == (1.0, 0.0)  # the first direction, as a unit vector
+    # a step to +y: after one time constant (in small steps) the angle is about 1 − 1/e of
+    # the way for small steps of a vector that is renormalised each time: between 40° and 90°
+    for k in range(1, 51):
+        x, y = s.update((0.0, 3.0), k * 0.01)
+    assert math.isclose(math.hypot(x, y), 1.0)
+    assert 40.0 < math.degrees(math.atan2(y, x)) < 90.0
+    for k in range(51, 600):
+        x, y = s.update((0.0, 3.0), k * 0.01)
+    assert math.degrees(math.atan2(y, x)) > 89.9
+    # a flat direction passes through and does not move the filter
+    assert s.update((0.0, 0.0), 7.0) == (0.0, 0.0)
+    assert s.update((1.0, 0.0), 5.99) == (x, y)  # no time elapsed since the last update
+
+
+def test_no_smoothing_passes_every_direction_through():
+    s = SmoothedDirection(0.0)
+    assert s.update((3.0, 4.0), 0.0) == (3.0, 4.0)
+    assert s.update((-1.0, 0.0), 0.1) == (-1.0, 0.0)
+
+
+def test_smoothing_turns_less_through_a_flickering_field():
+    """Directions alternating ±60° about +x at 10 Hz: the smoothed heading swings less than
+    half as far from +x as the raw one."""
+    s = SmoothedDirection(0.5)
+    angles = []
+    for k in range(100):
+        a = math.radians(60.0 if k % 2 else -60.0)
+        x, y = s.update((math.cos(a), math.sin(a)), 0.1 * k)
+        angles.append(math.degrees(math.atan2(y, x)))
+    assert max(abs(a) for a in angles[10:]) < 30.0

@@ -50,10 +50,13 @@ def test_reading_a_log_faults_far_fewer_pages(tmp_path):
             frame = encode.raw_image(np.roll(image, k, axis=1), t, "camera_left")
             out.write(contract.LEFT_IMAGE, t, frame)
             out.write(contract.RIGHT_IMAGE, t, frame)
-    default, tuned = _faults(log, "default"), _faults(log, "tuned")
-    # measured: 11 000-21 000 by default (glibc maps each chunk's buffers afresh), ~6 000
-    # tuned (what remains: the protobuf copies of the images)
-    assert tuned * 1.5 < default, (tuned, default)
+    # Best of three: how many chunk buffers are alive at once (images are views into their
+    # chunk) depends on how far the reading thread runs ahead, i.e. on the machine's load.
+    default = min(_faults(log, "default") for _ in range(3))
+    tuned = min(_faults(log, "tuned") for _ in range(3))
+    # measured: ~9 000 by default (glibc maps each chunk's buffer afresh), 9 tuned (6 800 on
+    # an occasional run under load)
+    assert tuned * 5 < default, (tuned, default)
 
 
 def test_it_says_whether_it_applied():

@@ -8,6 +8,7 @@ import sys
 import threading
 from pathlib import Path
 
+import numpy as np
 import pyarrow.parquet as pq
 import pytest
 from click.testing import CliRunner
@@ -229,10 +230,38 @@ def _pipeline_outputs(
     return written, [{k: ("nan" if v != v else v) for k, v in r.items()} for r in rows]
 
 
-def test_planner_on_its_own_thread_changes_no_output():
-    inline, threaded = _pipeline_outputs(False), _pipeline_outputs(True)
+PAPER_RULE = replace_dotted(SMALL, {"obstacles.min_distinctness": 0.0})
+
+
+@pytest.mark.parametrize("config", [PAPER_RULE, SMALL], ids=["paper-rule", "distinctness"])
+def test_planner_on_its_own_thread_changes_no_output(config):
+    inline, threaded = _pipeline_outputs(False, config), _pipeline_outputs(True, config)
     assert len(inline[0]) > 50 and len(inline[1]) == 21
     assert threaded == inline
+
+
+def test_distinctness_is_written_charged_and_keeps_fewer_obstacle_flies(corridor_run, tmp_path):
+    """The default rule measures distinctness: /flies carries it for the rule's candidates
+    (NaN for the rest), its evaluations are charged to the run, and the planner sees a
+    subset of what the paper's rule keeps (the same flies: in per-frame mode the engine's
+    generations do not depend on the rule)."""
+    plain_run = replay(CORRIDOR, tmp_path / "paper.mcap", PAPER_RULE)
+    clouds = [m.value for m in open_log(corridor_run.output).messages([contract.FLIES])]
+    plain = [m.value for m in open_log(plain_run.output).messages([contract.FLIES])]
+    assert len(clouds) == len(plain) > 5
+    kept = candidates = 0
+    for cloud, same in zip(clouds, plain, strict=True):
+        np.testing.assert_array_equal(cloud.xyz, same.xyz)
+        assert cloud.distinct is not None and same.distinct is None
+        base = PAPER_RULE.obstacles.mask(cloud.xyz, cloud.fitness, cloud.age)
+        assert (np.isnan(cloud.distinct) == ~base).all()  # measured exactly for the candidates
+        keep = SMALL.obstacles.mask(cloud.xyz, cloud.fitness, cloud.age, cloud.distinct)
+        assert not (keep & ~base).any()
+        kept, candidates = kept + keep.sum(), candidates + base.sum()
+    assert 0 < kept < candidates
+    shifts = len(SMALL.obstacles.distinct_shifts)
+    assert corridor_run.generations == plain_run.generations
+    assert corridor_run.evaluations - plain_run.evaluations >= candidates * (1 + shifts)
 
 
 @pytest.mark.parametrize(

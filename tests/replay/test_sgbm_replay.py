@@ -14,7 +14,7 @@ from click.testing import CliRunner
 
 from flylog.baseline import SgbmConfig
 from flylog.cli.main import cli
-from flylog.config import from_mapping
+from flylog.config import from_mapping, replace_dotted
 from flylog.errors import ConfigError
 from flylog.io import contract
 from flylog.io.reader import open_log
@@ -58,7 +58,11 @@ def test_writes_the_same_topics_as_the_flies(sgbm_run, tmp_path):
     assert pq.read_table(sgbm_run.table).schema == pq.read_table(flies.table).schema
     # both are sync: the same frames are processed, one SGBM step each
     assert sgbm_run.frames == flies.frames == sgbm_run.generations
-    assert sgbm_run.evaluations == 0 and sgbm_run.stereo == "sgbm"
+    # SGBM makes no fitness evaluations; the obstacle rule's distinctness test does (on its
+    # points as on flies), and nothing else
+    paper_rule = replace_dotted(SGBM, {"obstacles.min_distinctness": 0.0})
+    assert replay(CORRIDOR, tmp_path / "paper.mcap", paper_rule).evaluations == 0
+    assert sgbm_run.evaluations > 0 and sgbm_run.stereo == "sgbm"
 
 
 def test_cloud_carries_sgbm_points_in_base_link(sgbm_run):
@@ -141,7 +145,10 @@ def test_cli_engine_option(tmp_path):
 
 def test_closed_loop_drives_with_sgbm(tmp_path):
     config = tmp_path / "loop.toml"
-    config.write_text('stereo = "sgbm"\n[engine]\nflies = 600\n[sgbm]\nnum_disparities = 16\n')
+    config.write_text(
+        'stereo = "sgbm"\n[engine]\nflies = 600\n[sgbm]\nnum_disparities = 16\n'
+        "[obstacles]\nmin_distinctness = 0.0\n"  # no fitness evaluations at all
+    )
     out = tmp_path / "loop.mcap"
     scene = Path(__file__).resolve().parents[2] / "fixtures" / "scenes" / "corridor.toml"
     result = CliRunner().invoke(

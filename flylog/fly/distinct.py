@@ -1,0 +1,90 @@
+"""Distinctness: is a fly's depth the only one its left pixel matches along the epipolar line?
+
+A fly's fitness says its two projections look alike; it does not say that they look alike
+*only* at that depth. Where the image varies little along the epipolar line (a horizontal
+edge, a smooth stretch of sky or ground, a repeated texture), many depths along the fly's
+ray score about as well, and the population settles at whichever it found first: a phantom
+obstacle. The test here is the stereo matcher's uniqueness ratio (StereoSGBM's
+``uniquenessRatio``) applied to one fly: its vision fitness divided by the best vision fitness
+of the same left pixel at the disparities ``d + s`` for each shift ``s`` (px) of the list, the
+right projection moved along the epipolar line and the left one kept. A value well above 1
+means the match is a peak along the line; about 1 or below, that it is not evidence of a
+surface at that depth.
+
+The fitness is :mod:`flylog.fly.fitness`'s (compiled kernel or numpy reference, bit-identical),
+so distinctness costs ``1 + len(shifts)`` evaluations a fly.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from flylog.fly.config import Gradient
+from flylog.fly.fitness import (
+    INVALID_FITNESS,
+    fitness_numba,
+    fitness_numpy,
+)
+from flylog.geometry import StereoRig
+
+# Distinctness of a fly no shift can be compared with (every shifted disparity ≤ 0 or off the
+# image, or all of them score 0): its match has no rival on the line.
+NO_RIVAL = math.inf
+
+
+def shifted_along_epipolar(
+    xyz: np.ndarray, rig: StereoRig, shifts: tuple[int, ...]
+) -> tuple[np.ndarray, np.ndarray]:
+    """(S, N, 3) points with the left projection of ``xyz`` (N, 3) and the disparity d + s for
+    each shift s (px), and (S, N) bool: whether that disparity is positive (a point in front
+    of the cameras). Points whose shifted disparity is not positive are left at ``xyz``."""
+    xyz = np.asarray(xyz, dtype=np.float64)
+    u_left, u_right, v, depth = rig.project(xyz)
+    disparity = u_left - u_right
+    out = np.empty((len(shifts), len(xyz), 3))
+    valid = np.empty((len(shifts), len(xyz)), dtype=bool)
+    fb = rig.focal_px * rig.baseline
+    for k, s in enumerate(shifts):
+        d = disparity + s
+        valid[k] = (d > 0) & (depth > 0)
+        safe = np.where(valid[k], d, 1.0)
+        out[k] = np.where(valid[k][:, None], rig.backproject(u_left, v, fb / safe), xyz)
+    return out, valid
+
+
+def distinctness(
+    left: np.ndarray,
+    right: np.ndarray,
+    xyz: np.ndarray,
+    rig: StereoRig,
+    window: int,
+    guard: float,
+    shifts: tuple[int, ...],
+    *,
+    gradient: Gradient = Gradient.NORM,
+    use_numba: bool = True,
+) -> np.ndarray:
+    """(N,) float64: each fly's vision fitness over the best vision fitness of its left pixel
+    at the disparities shifted by ``shifts`` (px). 0 for a fly whose own fitness is not
+    positive (invalid or no contrast), :data:`NO_RIVAL` for one with no valid rival."""
+    if not shifts:
+        msg = "distinctness needs at least one disparity shift"
+        raise ValueError(msg)
+    xyz = np.ascontiguousarray(xyz, dtype=np.float64)
+    n = len(xyz)
+    if n == 0:
+        return np.empty(0)
+    shifted, valid = shifted_along_epipolar(xyz, rig, shifts)
+    points = np.concatenate([xyz[None], shifted]).reshape(-1, 3)
+    fitness = fitness_numba if use_numba else fitness_numpy
+    scores = fitness(left, right, points, rig, window, guard, gradient=gradient)
+    scores = scores.reshape(len(shifts) + 1, n)
+    own = scores[0]
+    rivals = np.where(valid, scores[1:], INVALID_FITNESS).max(axis=0)
+    out = np.full(n, NO_RIVAL)
+    compared = rivals > 0
+    out[compared] = own[compared] / rivals[compared]
+    out[own <= 0] = 0.0
+    return out
