@@ -11,17 +11,6 @@ from typing import Any, TypeVar
 
 import click
 from rich.console import Console
-from rich.progress import (
-    BarColumn,
-    MofNCompleteColumn,
-    Progress,
-    ProgressColumn,
-    Task,
-    TextColumn,
-    TimeElapsedColumn,
-    TimeRemainingColumn,
-)
-from rich.text import Text
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -59,40 +48,18 @@ def reports_errors(fn: F) -> F:
     return wrapper  # type: ignore[return-value]
 
 
-class AmountColumn(ProgressColumn):
-    """``done/total unit`` with one decimal; ``?`` for a total not known yet (a task's
-    total is None until the first update)."""
-
-    def __init__(self, unit: str) -> None:
-        super().__init__()
-        self.unit = unit
-
-    def render(self, task: Task) -> Text:
-        total = "?" if task.total is None else f"{task.total:.1f}"
-        return Text(f"{task.completed:.1f}/{total} {self.unit}")
-
-
 @contextmanager
 def progress_bar(
     description: str, unit: str, console: Console = stderr
 ) -> Iterator[Callable[[float, float], None]]:
     """A rich progress bar with ETA on ``console``; yields ``update(done, total)`` in ``unit``
-    (e.g. "frames", "s" of log time). Hidden when the console is not a terminal."""
-    count = MofNCompleteColumn() if unit == "frames" else AmountColumn(unit)
-    columns = (
-        TextColumn("[bold]{task.description}"),
-        BarColumn(),
-        count,
-        TimeElapsedColumn(),
-        TextColumn("ETA"),
-        TimeRemainingColumn(),
-    )
-    with Progress(*columns, console=console, disable=not console.is_terminal) as bar:
-        task = bar.add_task(description, total=None)
+    (e.g. "frames", "s" of log time). Nothing when the console is not a terminal."""
+    if not console.is_terminal:  # no bar: rich.progress is not even imported (~10 ms)
+        yield lambda done, total: None
+        return
+    from flylog.cli.progress import drawn_progress_bar
 
-        def update(done: float, total: float) -> None:
-            bar.update(task, completed=done, total=total)
-
+    with drawn_progress_bar(description, unit, console) as update:
         yield update
 
 

@@ -44,3 +44,40 @@ def test_progress_bar_draws_on_a_terminal_before_and_after_the_first_update(unit
     text = out.getvalue()
     assert "replay" in text
     assert ("1.5/60.0 s" if unit == "s" else "1/60") in text
+
+
+def _imported_by(statement: str, modules: tuple[str, ...]) -> list[str]:
+    """Which of ``modules`` a fresh interpreter has imported after ``statement``."""
+    code = f"import sys\n{statement}\nprint(','.join(m for m in {modules!r} if m in sys.modules))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    return [m for m in out.stdout.strip().split(",") if m]
+
+
+METRICS_PATH = "import flylog.cli.metrics, flylog.metrics.score"
+
+
+def test_metrics_imports_no_other_commands_library():
+    """`flylog metrics` starts in well under a second: it imports neither the replay, the
+    experiments, the planner, the renderer, opencv, matplotlib nor the writing side."""
+    unneeded = (
+        "flylog.replay", "flylog.experiments", "flylog.planner", "flylog.sim.render",
+        "flylog.io.writer", "flylog.io.encode", "mcap.writer", "cv2", "matplotlib",
+    )  # fmt: skip
+    assert _imported_by(METRICS_PATH, unneeded) == []
+
+
+def test_metrics_imports_neither_numba_nor_the_fly_engine():
+    """numba's import alone is ~0.2 s of the metrics command, and nothing there is compiled."""
+    assert _imported_by(METRICS_PATH, ("numba", "flylog.fly.engine")) == []
+
+
+def test_progress_bar_off_a_terminal_draws_nothing_and_skips_rich_progress():
+    statement = (
+        "import io\nfrom rich.console import Console\n"
+        "from flylog.cli.common import progress_bar\n"
+        "out = io.StringIO()\n"
+        "with progress_bar('metrics', 's', console=Console(file=out)) as update:\n"
+        "    update(1.0, 2.0)\n"
+        "assert out.getvalue() == ''"
+    )
+    assert _imported_by(statement, ("rich.progress", "flylog.cli.progress")) == []

@@ -6,13 +6,41 @@ Usable as a library without any log::
     engine.set_images(pair)
     stats = engine.step()
     points = obstacle_points(engine, quantile=0.5, ground_margin=0.05)
+
+The names below are imported on first use (PEP 562): ``flylog.fly.obstacles`` or
+``flylog.fly.config`` alone (what the metrics and the planner's configuration read) need
+not import the engine and its compiled kernels.
 """
 
-from flylog.fly.config import Backend, EngineConfig, Gradient
-from flylog.fly.engine import FlyEngine, GenerationStats
-from flylog.fly.fitness import INVALID_FITNESS, fitness_numba, fitness_numpy
-from flylog.fly.obstacles import ObstacleFlies, obstacle_mask, obstacle_points
-from flylog.fly.population import Population, random_flies, sharing_radius
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from flylog.fly.config import Backend, EngineConfig, Gradient
+    from flylog.fly.engine import FlyEngine, GenerationStats
+    from flylog.fly.fitness import INVALID_FITNESS, fitness_numba, fitness_numpy
+    from flylog.fly.obstacles import ObstacleFlies, obstacle_mask, obstacle_points
+    from flylog.fly.population import Population, random_flies, sharing_radius
+
+# public name → the submodule defining it
+_WHERE = {
+    "Backend": "config",
+    "EngineConfig": "config",
+    "Gradient": "config",
+    "FlyEngine": "engine",
+    "GenerationStats": "engine",
+    "INVALID_FITNESS": "fitness",
+    "fitness_numba": "fitness",
+    "fitness_numpy": "fitness",
+    "ObstacleFlies": "obstacles",
+    "obstacle_mask": "obstacles",
+    "obstacle_points": "obstacles",
+    "Population": "population",
+    "random_flies": "population",
+    "sharing_radius": "population",
+}
 
 __all__ = [
     "INVALID_FITNESS",
@@ -30,3 +58,16 @@ __all__ = [
     "random_flies",
     "sharing_radius",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _WHERE:
+        msg = f"module {__name__!r} has no attribute {name!r}"
+        raise AttributeError(msg)
+    value = getattr(importlib.import_module(f"{__name__}.{_WHERE[name]}"), name)
+    globals()[name] = value  # later look-ups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_WHERE})

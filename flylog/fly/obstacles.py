@@ -3,17 +3,19 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from flylog.config import param
 from flylog.errors import ConfigError
 from flylog.fly.config import Backend, EngineConfig
-from flylog.fly.distinct import distinctness
-from flylog.fly.engine import FlyEngine
-from flylog.fly.population import Population
 from flylog.geometry import StereoRig
 from flylog.sensors import StereoPair
+
+if TYPE_CHECKING:  # not at import: the metrics need only the rule, and no compiled code
+    from flylog.fly.engine import FlyEngine
+    from flylog.fly.population import Population
 
 
 def obstacle_mask(
@@ -141,6 +143,8 @@ class ObstacleFlies:
         out = np.full(len(fitness), np.nan)
         if pair is None:
             return out
+        from flylog.fly.distinct import distinctness  # compiled code: only when measured
+
         measured = np.flatnonzero(self._candidates(xyz, fitness, age))
         out[measured] = distinctness(
             pair.left, pair.right, np.asarray(xyz)[measured], rig, engine.window, engine.guard,
@@ -179,6 +183,8 @@ def obstacle_points(
     min_age: int = 0,
 ) -> np.ndarray:
     """(M, 3) positions (base_link) of the flies :func:`obstacle_mask` keeps."""
+    from flylog.fly.engine import FlyEngine
+
     pop = source.population if isinstance(source, FlyEngine) else source
     keep = obstacle_mask(
         pop.xyz, pop.fitness, min_fitness=min_fitness, quantile=quantile,

@@ -12,8 +12,6 @@ import json
 from types import MappingProxyType
 from typing import Any
 
-import foxglove.messages as fm
-
 # ---- topics ------------------------------------------------------------------------------
 
 LEFT_IMAGE = "/camera/left/image"
@@ -99,20 +97,32 @@ TOPIC_SCHEMAS: MappingProxyType[str, str] = MappingProxyType(
     }
 )
 
-# The Foxglove message class of each protobuf schema (its get_schema() gives the bytes).
-FOXGLOVE_TYPES: MappingProxyType[str, type] = MappingProxyType(
-    {
-        RAW_IMAGE: fm.RawImage,
-        CAMERA_CALIBRATION: fm.CameraCalibration,
-        POSE_IN_FRAME: fm.PoseInFrame,
-        FRAME_TRANSFORMS: fm.FrameTransforms,
-        SCENE_UPDATE: fm.SceneUpdate,
-        POINT_CLOUD: fm.PointCloud,
-        IMAGE_ANNOTATIONS: fm.ImageAnnotations,
-        GRID: fm.Grid,
-        POSES_IN_FRAME: fm.PosesInFrame,
-    }
-)
+_FOXGLOVE_CLASSES = {
+    RAW_IMAGE: "RawImage",
+    CAMERA_CALIBRATION: "CameraCalibration",
+    POSE_IN_FRAME: "PoseInFrame",
+    FRAME_TRANSFORMS: "FrameTransforms",
+    SCENE_UPDATE: "SceneUpdate",
+    POINT_CLOUD: "PointCloud",
+    IMAGE_ANNOTATIONS: "ImageAnnotations",
+    GRID: "Grid",
+    POSES_IN_FRAME: "PosesInFrame",
+}
+
+
+def _foxglove_types() -> MappingProxyType[str, type]:
+    # Only writing needs the classes (their schemas): reading decodes by the schema each log
+    # carries, and importing the Foxglove SDK costs every reading command ~15 ms.
+    import foxglove.messages as fm
+
+    return MappingProxyType({name: getattr(fm, cls) for name, cls in _FOXGLOVE_CLASSES.items()})
+
+
+def __getattr__(name: str) -> Any:
+    if name == "FOXGLOVE_TYPES":  # the Foxglove message class of each protobuf schema
+        return _foxglove_types()
+    msg = f"module {__name__!r} has no attribute {name!r}"
+    raise AttributeError(msg)
 
 
 class CommandStatus(enum.Enum):
@@ -197,8 +207,8 @@ JSON_SCHEMAS: MappingProxyType[str, bytes] = MappingProxyType(
 
 def schema_record(name: str) -> tuple[str, str, bytes]:
     """(name, schema encoding, schema data) of a contract schema, as MCAP stores it."""
-    if name in FOXGLOVE_TYPES:
-        schema = FOXGLOVE_TYPES[name].get_schema()
+    if name in _FOXGLOVE_CLASSES:
+        schema = _foxglove_types()[name].get_schema()
         return schema.name, schema.encoding, schema.data
     if name in JSON_SCHEMAS:
         return name, JSON_SCHEMA_ENCODING, JSON_SCHEMAS[name]

@@ -12,10 +12,10 @@ import os
 import warnings
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 from mcap.reader import SeekingReader
-from mcap.records import Channel, Schema
+from mcap.records import Channel, Metadata, Schema
 from mcap.summary import Summary
 from mcap_protobuf.decoder import DecoderFactory
 
@@ -34,7 +34,6 @@ from flylog.io.scan import (
     in_log_time_order,
     scan_messages,
 )
-from flylog.io.writer import MAX_WRITE_LAG_NS
 from flylog.sensors import StereoPair
 
 
@@ -85,6 +84,18 @@ class LogReader:
         self._scan: ScanState | None = None
         self._topics: dict[str, TopicInfo] | None = None
         self._times: tuple[int, int] = (0, 0)
+        self._metadata: list[Metadata] | None = None
+
+    def _indexed(self, fh: BinaryIO, *, validate_crcs: bool = False) -> SeekingReader:
+        """mcap's reader over ``fh`` of a finished log, given the summary read at open.
+
+        Why: mcap's SeekingReader parses the whole summary section on first use (every chunk
+        and message index: ~1500 records, ~20 ms, on the reference 60 s run) and keeps it
+        in ``_summary``; each attachment, metadata or message query makes a new reader.
+        """
+        reader = SeekingReader(fh, validate_crcs=validate_crcs)
+        reader._summary = self._summary  # mcap 1.x's cache; a renamed one is only a miss
+        return reader
 
     @property
     def complete(self) -> bool:
@@ -152,7 +163,7 @@ class LogReader:
             found = self._scanned().attachments
         else:
             with self.path.open("rb") as fh:
-                found = list(SeekingReader(fh).iter_attachments())
+                found = list(self._indexed(fh).iter_attachments())
         return [LogAttachment(a.name, a.media_type, a.log_time, a.data) for a in found]
 
     def metadata(self) -> dict[str, dict[str, str]]:
@@ -160,8 +171,10 @@ class LogReader:
         if self._summary is None:
             found = self._scanned().metadata
         else:
-            with self.path.open("rb") as fh:
-                found = list(SeekingReader(fh).iter_metadata())
+            if self._metadata is None:  # a few small records, asked for by several readers
+                with self.path.open("rb") as fh:
+                    self._metadata = list(self._indexed(fh).iter_metadata())
+            found = self._metadata
         return {m.name: dict(m.metadata) for m in found}
 
     # ---- messages -------------------------------------------------------------------------
@@ -191,6 +204,10 @@ class LogReader:
                         msg = f"{self.path}: damaged log ({type(exc).__name__}: {exc})"
                         raise LogError(msg) from None
                     yield raw
+            # Here, not at import: the writer's module imports mcap's writer, which looks up
+            # its package version (~25 ms of every reading command's start).
+            from flylog.io.writer import MAX_WRITE_LAG_NS
+
             state = ScanState()
             count = 0
             for raw in in_log_time_order(scan_messages(fh, state, topics=wanted), MAX_WRITE_LAG_NS):

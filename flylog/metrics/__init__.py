@@ -3,6 +3,7 @@
 - ``truth``: scene, rig and true/odometric trajectories of a sensor log.
 - ``flies``: precision, recall, F-score, depth error of fly snapshots (definitions there),
   scored a batch of snapshots at once (``score_snapshots``, what ``score_run`` uses).
+- ``view``, ``depth``: the true views (the simulator's depth path in numpy, in batches).
 - ``obstacles``: per-obstacle detection latency. ``trajectory``: ATE, RPE, path, goal.
 - ``score``: ``score_run`` / ``write_metrics`` (``flylog metrics``); ``tables``: the schemas.
 - ``compare``: ``compare_files`` with per-metric tolerances (``flylog compare``).

@@ -198,8 +198,10 @@ def _cell_counts(mask: np.ndarray, cell: int, block: int) -> tuple[np.ndarray, n
     h, w = mask.shape[1:]
     step = cell // block
     if h % step == 0 and w % step == 0:  # whole cells: sums over a reshape, exact in int32
-        cells = mask.reshape(len(mask), h // step, step, w // step, step)
-        hits = cells.sum(axis=4, dtype=np.int32).sum(axis=2, dtype=np.int64)
+        # Rows of a cell first (whole image rows added: a long inner loop), then the few
+        # columns of each cell: a third of the time of summing each cell's short rows first.
+        rows = mask.reshape(len(mask), h // step, step, w).sum(axis=2, dtype=np.int32)
+        hits = rows.reshape(len(mask), h // step, w // step, step).sum(axis=3, dtype=np.int64)
         pixels = np.full((h // step, w // step), step * step, dtype=np.int64)
     else:
         mask = mask.astype(np.int64)
@@ -222,11 +224,15 @@ def _pixels_per_obstacle(ids: np.ndarray, n_obstacles: int) -> np.ndarray:
     """(S, n_obstacles) blocks of each stacked view seeing each obstacle (ids beyond the
     count dropped; -1 ground and -2 sky not counted)."""
     count = len(ids)
-    flat = np.maximum(ids.reshape(count, -1).astype(np.int64) + 2, 0)  # -2 sky: class 0
-    width = max(n_obstacles + 2, int(flat.max()) + 1 if flat.size else 0)
-    key = flat + (np.arange(count) * width)[:, None]
-    counts = np.bincount(key.ravel(), minlength=count * width).reshape(count, width)
-    return counts[:, 2 : n_obstacles + 2]
+    flat = ids.reshape(count, -1)
+    low = min(int(flat.min()), 0) if flat.size else 0  # -2, the sky
+    counts = np.zeros((count, n_obstacles), dtype=np.int64)
+    # One bincount per view: its keys are the view's own ids, not ids offset by the view's
+    # index (a third of the time: no int64 copy of the whole batch).
+    for k in range(count):
+        found = np.bincount(flat[k].astype(np.intp) - low, minlength=n_obstacles - low)
+        counts[k] = found[-low : n_obstacles - low]
+    return counts
 
 
 def _nearest_visible(depth: np.ndarray, ids: np.ndarray, rig: StereoRig, block: int) -> np.ndarray:

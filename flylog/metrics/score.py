@@ -2,7 +2,7 @@
 
 The run file is a ``flylog replay`` output or a closed-loop ``flylog simulate`` log (which is
 then also the sensor log). Ground truth is rendered only at the snapshot times, from the
-true pose interpolated there, by the simulator's renderer, on a grid of pixel blocks at
+true pose interpolated there, by the simulator's depth path, on a grid of pixel blocks at
 least ``truth_width`` blocks wide (``flylog.metrics.view``). Definitions: see
 ``flylog.metrics.flies`` (flies), ``flylog.metrics.obstacles`` (latency) and
 ``flylog.metrics.trajectory`` (ATE, RPE); the robot's metrics use the true trajectory
@@ -28,7 +28,6 @@ import numpy as np
 from flylog.config import from_mapping, to_mapping
 from flylog.errors import LogError
 from flylog.fly.obstacles import ObstacleFlies
-from flylog.geometry import Pose2D
 from flylog.io import contract, open_log
 from flylog.io.reader import LogReader
 from flylog.io.records import LogMessage
@@ -46,7 +45,7 @@ from flylog.metrics.trajectory import (
     rpe_rmse,
 )
 from flylog.metrics.truth import LogTruth, read_truth
-from flylog.metrics.view import TrueView, TrueViews
+from flylog.metrics.view import TrueViews
 from flylog.scene.load import distance_to_obstacles
 
 # Odometry and truth are written at the same instants by the simulator; allow one 50 Hz
@@ -54,7 +53,7 @@ from flylog.scene.load import distance_to_obstacles
 _MAX_MATCH_NS = 20_000_000
 # Run messages decoded ahead of the scoring by a background thread (a /flies snapshot of
 # 5000 flies is ~100 kB): the run's chunks decompress and pass their CRC checks, which
-# release the GIL, while the truth is read, the renderer's kernels load and views render.
+# release the GIL, while the truth is read and views render.
 _READ_AHEAD = 64
 # Snapshots scored together (flylog.metrics.flies.score_snapshots), at most ~4 M view pixels at once
 # (64 views of 160x120 blocks; 13 per-pixel 640x480 views).
@@ -74,13 +73,11 @@ class RunFacts:
 
 
 class _Snapshot(NamedTuple):
-    """A /flies snapshot waiting to be scored: its obstacle flies and true view."""
+    """A /flies snapshot waiting to be scored: its time and obstacle flies."""
 
     t_ns: int
-    pose: np.ndarray  # true (x, y, theta) at t_ns
     xyz: np.ndarray  # (M, 3) obstacle flies
     flies: int  # flies in the snapshot
-    view: TrueView
 
 
 @dataclass(frozen=True)
@@ -239,19 +236,21 @@ def _scored(
     pending: list[_Snapshot] = []
 
     def score_pending() -> None:
+        poses = true_pose(np.array([p.t_ns for p in pending]))
+        depth, ids = views.render(poses)
         scores = score_snapshots(
             [p.xyz for p in pending],
-            np.stack([p.view.depth for p in pending]),
-            np.stack([p.view.ids for p in pending]),
+            depth,
+            ids,
             truth.rig,
             n_obstacles,
             config,
             flies=[p.flies for p in pending],
             block=views.block,
         )
-        for p, score in zip(pending, scores, strict=True):
+        for p, pose, score in zip(pending, poses, scores, strict=True):
             t = p.t_ns
-            rows.append(_snapshot_row(t, t0, p.pose, score))
+            rows.append(_snapshot_row(t, t0, pose, score))
             visible_px.append(score.visible_pixels)
             flies_on.append(score.flies_on)
             errors.append(score.depth_errors)
@@ -279,11 +278,8 @@ def _scored(
                 "written by another flylog version?"
             )
             raise LogError(msg)
-        pose = true_pose(np.array([t]))[0]
         keep = facts.rule.mask(cloud.xyz, cloud.fitness, cloud.age, cloud.distinct)
-        pending.append(
-            _Snapshot(t, pose, cloud.xyz[keep], len(cloud.xyz), views.view(Pose2D(*pose)))
-        )
+        pending.append(_Snapshot(t, cloud.xyz[keep], len(cloud.xyz)))
         if len(pending) == batch:
             score_pending()
     if pending:

@@ -1,7 +1,7 @@
 """What a sensor log says is true: the scene, the camera rig, the true and odometric
-trajectories (``/truth/pose``, ``/odom``). The true views themselves come from the
-simulator's own renderer (``flylog.sim.render.Renderer.render_depth``), never from a
-second geometry code.
+trajectories (``/truth/pose``, ``/odom``). The true views themselves are the simulator's
+depth path (``flylog.sim.render.Renderer.render_depth``), redone in numpy for batches of
+views by ``flylog.sim.depth`` and tested equal to it bit for bit.
 
 The trajectories come from the ``flylog.trajectories`` metadata record the simulator writes
 at close (read from the summary section: no image chunk is decompressed) when the log has

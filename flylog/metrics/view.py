@@ -1,7 +1,10 @@
-"""The true left view the fly metrics read, rendered by the simulator on a coarser grid.
+"""The true left view the fly metrics read, rendered on a coarser grid.
 
-Ground truth comes from the simulator's own renderer, never from a second geometry code;
-but the metrics need neither colour nor every pixel. The view is rendered with the camera's
+Ground truth comes from the simulator's own renderer, never from a second geometry code: its
+depth path, which the simulator carries twice, as the compiled kernel that renders frames and
+as ``flylog.sim.depth`` in numpy for batches of views (equal bit for bit, and tested so: the
+metrics use the numpy one, which costs no numba start-up). The metrics need neither colour
+nor every pixel. The view is rendered with the camera's
 own rig at 1/k of its width, height and focal length (k from ``MetricsConfig.truth_width``):
 that rig's pixel (i, j) is the ray through the centre of the k×k pixel block (i, j) of the
 full image, so the coarse view is the full view sampled at block centres, at 1/k² of the
@@ -14,11 +17,15 @@ from __future__ import annotations
 import dataclasses
 from typing import NamedTuple
 
-import numba
 import numpy as np
 
 from flylog.geometry import Pose2D, StereoRig
 from flylog.scene.load import Scene
+from flylog.sim.depth import true_depths
+
+# Views rendered together: the working arrays of 16 views of 160x120 stay in a core's cache
+# (32 take twice as long per view on the reference machine).
+_RENDER_BATCH = 16
 
 
 class TrueView(NamedTuple):
@@ -50,24 +57,28 @@ def block_rig(rig: StereoRig, block: int) -> StereoRig:
 
 
 class TrueViews:
-    """Renders the true left view of a scene from true robot poses (the simulator's
-    renderer; the scene is compiled once)."""
+    """Renders the true left view of a scene from true robot poses (the simulator's depth
+    path, :func:`flylog.sim.depth.true_depths`)."""
 
     def __init__(self, scene: Scene, rig: StereoRig, min_width: int | None = None) -> None:
-        from flylog.sim.render import Renderer
-
         self.rig = rig
         self.block = view_block(rig, rig.width if min_width is None else min_width)
-        self._renderer = Renderer(scene, block_rig(rig, self.block))
+        self._rig = block_rig(rig, self.block)
+        self._footprints = scene.footprints
 
     def view(self, pose: Pose2D) -> TrueView:
-        # One thread: a depth-only view is too small to share out; the parallel launch costs
-        # more than it saves (~1 ms against ~12 ms a view at 160×120 on a loaded 2-core
-        # machine). numba's thread count is per calling thread and is restored.
-        threads = numba.get_num_threads()
-        numba.set_num_threads(1)
-        try:
-            depth, ids = self._renderer.render_depth(pose)
-        finally:
-            numba.set_num_threads(threads)
-        return TrueView(depth, ids, self.block)
+        depth, ids = self.render(np.array([[pose.x, pose.y, pose.theta]]))
+        return TrueView(depth[0], ids[0], self.block)
+
+    def render(self, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(B, h, w) depths and ids (as :class:`TrueView`) from (B, 3) true poses."""
+        poses = np.asarray(poses, dtype=float).reshape(-1, 3)
+        parts = [
+            true_depths(self._footprints, self._rig, poses[i : i + _RENDER_BATCH])
+            for i in range(0, len(poses), _RENDER_BATCH)
+        ]
+        if len(parts) == 1:
+            return parts[0]
+        if not parts:
+            return true_depths(self._footprints, self._rig, poses)
+        return np.concatenate([d for d, _ in parts]), np.concatenate([i for _, i in parts])

@@ -22,8 +22,9 @@ import numba
 import numpy as np
 
 from flylog.geometry import Pose2D, StereoRig
-from flylog.scene.footprints import DISC, Footprints, ray_hit, ray_hits_numpy
+from flylog.scene.footprints import DISC, Footprints, ray_hits_numpy
 from flylog.scene.load import Scene
+from flylog.scene.ray_kernel import ray_hit
 from flylog.sim.textures import texture_column, texture_value_numpy, value_noise_1d_numpy
 
 GROUND = -1

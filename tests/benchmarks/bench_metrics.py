@@ -10,6 +10,11 @@ of the log without the record: every image chunk decompressed) and a per-pixel t
 numba's cache load included), the reference 60 s pair of bench_replay when bench-out holds
 it, and how far the decimated figures lie from the per-pixel ones.
 
+The true views: the metrics' numpy depth path (``flylog.sim.depth``, no numba to load)
+against the simulator's compiled kernel on the same poses, in the same process, interleaved
+(the kernel's load excluded: it is the start-up cost the numpy path exists to avoid; the
+fresh-process import of the metrics path is timed apart, with whether numba came with it).
+
 Command to command (what issue 5 asks): a fresh ``flylog replay`` process on the log and a
 fresh ``flylog metrics`` process on that replay's output, both timed here (process start
 to exit), as a ratio; for the 10 s log and for bench_replay's 60 s reference log when
@@ -23,13 +28,20 @@ import sys
 import time
 from pathlib import Path
 
+import numba
+import numpy as np
+
+from flylog.geometry import Pose2D
 from flylog.io import contract, open_log
 from flylog.metrics.config import MetricsConfig
 from flylog.metrics.score import run_facts, score_run
+from flylog.metrics.trajectory import PoseInterpolator
 from flylog.metrics.truth import read_truth
+from flylog.metrics.view import TrueViews, block_rig
 from flylog.replay.config import ReplayConfig
 from flylog.replay.run import replay
 from flylog.scene import load_scene
+from flylog.sim.render import Renderer
 from flylog.sim.run import SimulationOptions, simulate
 from tests.logcopy import copy_log
 
@@ -100,6 +112,58 @@ def _commands(log: Path, run_file: Path, out: Path, label: str) -> dict:
     }
 
 
+def _views(log: Path, run_file: Path) -> dict:
+    """The run's true views by the numpy depth path and by the renderer's kernel."""
+    truth = read_truth(log)
+    times = [m.log_time_ns for m in open_log(run_file).messages([contract.FLIES])]
+    poses = PoseInterpolator(truth.true)(np.array(times))
+    views = TrueViews(truth.scene, truth.rig, NEW.truth_width)
+    kernel = Renderer(truth.scene, block_rig(truth.rig, views.block))
+    kernel.render_depth(Pose2D(*poses[0]))  # its load is not what is compared here
+    threads = numba.get_num_threads()
+    numba.set_num_threads(1)  # as the metrics ran it: a small view gains nothing from threads
+    numpy_s, kernel_s = [], []
+    try:
+        for _ in range(REPEATS + 2):  # interleaved, best of each
+            numpy_s.append(_best(lambda: views.render(poses), 1)[0])
+            kernel_s.append(_best(lambda: [kernel.render_depth(Pose2D(*p)) for p in poses], 1)[0])
+        want = [kernel.render_depth(Pose2D(*p)) for p in poses]
+    finally:
+        numba.set_num_threads(threads)
+    depth, ids = views.render(poses)
+    equal = np.array_equal(depth, np.stack([d for d, _ in want])) and np.array_equal(
+        ids, np.stack([i for _, i in want])
+    )
+    return {
+        "name": f"true views, numpy depth path vs the compiled kernel ({len(poses)} views)",
+        "value": min(numpy_s),
+        "unit": "s",
+        "reference": f"kernel {min(kernel_s):.3f} s (one thread, loaded)",
+        "ratio": min(numpy_s) / min(kernel_s),
+        "note": f"{depth.shape[2]}x{depth.shape[1]} blocks; equal bit for bit: {equal}",
+    }
+
+
+def _import_seconds() -> dict:
+    """A fresh interpreter importing the metrics command's modules (best of 5)."""
+    code = (
+        "import sys, time; t = time.perf_counter()\n"
+        "import flylog.cli.metrics, flylog.metrics.score\n"
+        "print(time.perf_counter() - t, 'numba' in sys.modules)"
+    )
+    best, numba = float("inf"), ""
+    for _ in range(5):
+        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+        seconds, numba = out.stdout.split()
+        best = min(best, float(seconds))
+    return {
+        "name": "fresh process: import of the metrics command's modules",
+        "value": best,
+        "unit": "s",
+        "note": f"numba imported: {numba}",
+    }
+
+
 def _differences(new: dict, old: dict) -> str:
     return ", ".join(f"{k} {new[k] - old[k]:+.4f}" for k in COMPARED)
 
@@ -127,6 +191,8 @@ def run(out_dir: Path) -> list[dict]:
     commands = _commands(log, command_run, out_dir / "metrics-cli.parquet", f"{DURATION:g} s")
     figures = [
         commands,
+        _views(log, run_file),
+        _import_seconds(),
         {
             "name": f"flylog metrics / replay, corridor 640x480 {DURATION:g} s (in process)",
             "value": new_t,

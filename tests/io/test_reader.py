@@ -272,3 +272,40 @@ def test_pairing_buffers_at_most_max_pending_images():
         bounded = list(pair_stereo([*lefts, late_right], max_pending=3))
     assert [m.log_time_ns for m in kept] == [0]
     assert bounded == []  # the first left had been dropped to keep 3 waiting
+
+
+def test_a_finished_log_parses_its_summary_once(sample_log: Sample, monkeypatch):
+    """Metadata, attachments and messages reuse the summary read at open (mcap would parse
+    every chunk and message index again for each query: ~20 ms on a 60 s run)."""
+    import mcap.reader
+
+    calls = []
+    parse = mcap.reader._read_summary_from_stream_reader
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return parse(*args, **kwargs)
+
+    monkeypatch.setattr(mcap.reader, "_read_summary_from_stream_reader", counted)
+    log = open_log(sample_log.path)
+    assert len(calls) == 1
+    first = log.metadata()
+    assert log.metadata() == first and first  # the records, read once and kept
+    assert len(log.attachments()) == 1
+    assert sum(1 for _ in log.messages([contract.ODOM])) == len(sample_log.written[contract.ODOM])
+    assert len(calls) == 1
+
+
+def test_reading_imports_neither_the_writer_nor_the_encoders_nor_foxglove():
+    code = (
+        "import sys\nfrom flylog.io import open_log, contract\n"
+        "print(','.join(m for m in ('flylog.io.writer', 'flylog.io.encode', 'mcap.writer', "
+        "'foxglove') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == ""
+    from flylog import io
+
+    assert sorted(io.__all__) == sorted(io._WHERE)
+    for name in io.__all__:  # every lazily imported name is there, from its own module
+        assert getattr(io, name).__module__.startswith("flylog.io.")

@@ -6,7 +6,8 @@ import pytest
 
 from flylog.errors import ConfigError
 from flylog.scene import ObstacleKind, distance_to_obstacles, load_scene, parse_scene
-from flylog.scene.footprints import ray_hit, ray_hits_numpy
+from flylog.scene.footprints import ray_hits_numpy
+from flylog.scene.ray_kernel import ray_hit
 
 FIXTURES = Path(__file__).resolve().parents[2] / "fixtures" / "scenes"
 SCENES = ["corridor", "turn", "near-obstacle", "clutter"]
