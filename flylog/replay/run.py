@@ -39,7 +39,7 @@ _F, _I, _S = pa.float64(), pa.int64(), pa.string()
 STEP_COLUMNS = (
     Column("t", _F, "s", "log time of the planner tick"),
     Column("generation", _I, "", "generations (sgbm: frames matched) behind what the planner saw"),
-    Column("evaluations", _I, "", "fitness evaluations so far (sgbm: 0)"),
+    Column("evaluations", _I, "", "fitness evaluations so far (sgbm: the distinctness test's)"),
     Column("valid_flies", _I, "", "flies inside both images, with positive fitness (sgbm: points)"),
     Column("obstacle_flies", _I, "", "flies taken for obstacles (the [obstacles] rule)"),
     Column("best_fitness", _F, "", "best fitness of the population the planner saw"),
