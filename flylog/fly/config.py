@@ -86,10 +86,11 @@ class EngineConfig:
         0.5, help="share of the immigrants placed on sonar arcs", min=0.0, max=1.0
     )
     scouting: bool = param(
-        False,
+        True,
         help="while turning, place some immigrants where new content enters the view, each at "
         "the best of scout_candidates depths (flylog.fly.scouts; not the paper's: on turn it "
-        "halves the detection latency, but closed loop did worse with it on)",
+        "takes the median detection latency from 1.5 to 1.0 frame period; closed loop reached "
+        "the goal on 2/5 corridor seeds with it, 3/5 without, no collision with it)",
     )
     scout_fraction: float = param(
         0.5,
