@@ -171,6 +171,8 @@ def _describe_planner(planner: PlannerConfig, overrides: Mapping[str, object]) -
         if planner.lookahead > 0
         else "steers along −∇U at the robot"
     )
+    if planner.heading_smoothing > 0:
+        steer += f" (direction low-passed, time constant {planner.heading_smoothing:g} s)"
     changed = ", ".join(f"{k} = {v}" for k, v in overrides.items())
     return (
         f"planner: U = 1 on the border, 0 at the goal, {field}; obstacles inflated by "
