@@ -113,39 +113,51 @@ class ObstacleFlies:
     ) -> np.ndarray:
         """(N,) bool: the obstacle flies; ``distinct`` (from :meth:`distinct_of`) is required
         when the rule uses distinctness."""
-        keep = self._candidates(xyz, fitness, age)
-        if self.uses_distinctness:
-            if distinct is None:
-                msg = (
-                    f"this obstacle rule needs each fly's distinctness (min_distinctness "
-                    f"{self.min_distinctness:g}), and none was given (a /flies cloud without "
-                    "a 'distinct' field?)"
-                )
-                raise ValueError(msg)
-            keep &= np.asarray(distinct) >= self.min_distinctness  # NaN: not measured
-        return keep
+        return self.keep(self.candidates(xyz, fitness, age), distinct)
+
+    def candidates(
+        self, xyz: np.ndarray, fitness: np.ndarray, age: np.ndarray | None
+    ) -> np.ndarray:
+        """(N,) bool: the flies every test but distinctness keeps (the ones it measures)."""
+        return obstacle_mask(
+            xyz, fitness, quantile=self.quantile, ground_margin=self.ground_margin,
+            age=age, min_age=self.min_age,
+        )  # fmt: skip
+
+    def keep(self, candidates: np.ndarray, distinct: np.ndarray | None) -> np.ndarray:
+        """(N,) bool: the ``candidates`` whose ``distinct`` passes, when the rule reads it."""
+        if not self.uses_distinctness:
+            return candidates
+        if distinct is None:
+            msg = (
+                f"this obstacle rule needs each fly's distinctness (min_distinctness "
+                f"{self.min_distinctness:g}), and none was given (a /flies cloud without "
+                "a 'distinct' field?)"
+            )
+            raise ValueError(msg)
+        return candidates & (np.asarray(distinct) >= self.min_distinctness)  # NaN: not measured
 
     def distinct_of(
         self,
         xyz: np.ndarray,
-        fitness: np.ndarray,
-        age: np.ndarray | None,
+        candidates: np.ndarray,
         pair: StereoPair | None,
         rig: StereoRig,
         engine: EngineConfig,
     ) -> np.ndarray | None:
-        """(N,) float: the distinctness of the flies the rule's other tests keep, measured on
-        ``pair`` (the images their fitness was), NaN for the others; None when the rule does
-        not use distinctness. Costs ``1 + len(distinct_shifts)`` fitness evaluations a fly
-        measured, with the engine's fitness (window, guard, gradient)."""
+        """(N,) float: the distinctness of the ``candidates`` (from :meth:`candidates`),
+        measured on ``pair`` (the images their fitness was), NaN for the others; None when
+        the rule does not use distinctness. Costs ``1 + len(distinct_shifts)`` fitness
+        evaluations a candidate (:meth:`distinct_evaluations`), with the engine's fitness
+        (window, guard, gradient)."""
         if not self.uses_distinctness:
             return None
-        out = np.full(len(fitness), np.nan)
+        out = np.full(len(candidates), np.nan)
         if pair is None:
             return out
         from flylog.fly.distinct import distinctness  # compiled code: only when measured
 
-        measured = np.flatnonzero(self._candidates(xyz, fitness, age))
+        measured = np.flatnonzero(candidates)
         out[measured] = distinctness(
             pair.left, pair.right, np.asarray(xyz)[measured], rig, engine.window, engine.guard,
             self.distinct_shifts, gradient=engine.gradient,
@@ -153,25 +165,15 @@ class ObstacleFlies:
         )  # fmt: skip
         return out
 
-    def distinct_evaluations(
-        self, xyz: np.ndarray, fitness: np.ndarray, age: np.ndarray | None
-    ) -> int:
-        """The fitness evaluations :meth:`distinct_of` makes for these flies."""
+    def distinct_evaluations(self, candidates: np.ndarray) -> int:
+        """The fitness evaluations :meth:`distinct_of` makes for these ``candidates``."""
         if not self.uses_distinctness:
             return 0
-        return int(self._candidates(xyz, fitness, age).sum()) * (1 + len(self.distinct_shifts))
+        return int(np.count_nonzero(candidates)) * (1 + len(self.distinct_shifts))
 
     def most_distinct_evaluations(self, flies: int) -> int:
         """The most :meth:`distinct_evaluations` can be for a population of ``flies``."""
         return flies * (1 + len(self.distinct_shifts)) if self.uses_distinctness else 0
-
-    def _candidates(
-        self, xyz: np.ndarray, fitness: np.ndarray, age: np.ndarray | None
-    ) -> np.ndarray:
-        return obstacle_mask(
-            xyz, fitness, quantile=self.quantile, ground_margin=self.ground_margin,
-            age=age, min_age=self.min_age,
-        )  # fmt: skip
 
 
 def obstacle_points(

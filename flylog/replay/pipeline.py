@@ -45,6 +45,7 @@ class _TickInputs:
     evaluations: int
     odom: OdomReading  # the newest odometry delivered
     pair: StereoPair | None  # the images the population was scored on (None: none yet)
+    candidates: np.ndarray | None  # the flies whose distinctness the rule reads (or None)
 
 
 @dataclass(frozen=True)
@@ -141,9 +142,10 @@ class FlyPipeline:
         self._pair: StereoPair | None = None  # newest stereo pair delivered
         self._published_pair: StereoPair | None = None  # ... when the population was published
         self._evidence: tuple[int, np.ndarray, np.ndarray | None] | None = None  # _obstacles
-        # Distinctness is measured once a published population, on the worker; its fitness
-        # evaluations are counted here when asked for and charged to the next generation.
-        self._charged_generation = -1
+        # Distinctness is measured once a published population, on the worker, for the
+        # candidates found here (_published_candidates); its fitness evaluations are charged
+        # to the next generation.
+        self._candidates: tuple[int, np.ndarray] | None = None  # (generation, mask)
         self._owed_evaluations = 0
         self._evaluations = 0
         self.command = Command(0.0, 0.0, Status.DRIVING)
@@ -219,7 +221,6 @@ class FlyPipeline:
 
     def _planner_tick(self, t_ns: int) -> None:
         pop = self._published_population()
-        self._charge_distinctness(pop)
         tick = _TickInputs(
             t_ns,
             pop,
@@ -229,6 +230,7 @@ class FlyPipeline:
             self._evaluations,
             self._odom,
             self._published_pair,
+            self._published_candidates(pop),
         )
         self._submit(self._run_tick, tick)
 
@@ -273,7 +275,8 @@ class FlyPipeline:
         if pop is None:
             obstacles = np.empty((0, 3))
         else:
-            obstacles = pop.xyz[self._obstacles(pop, tick.pair, tick.generation)[0]]
+            mask, _ = self._obstacles(pop, tick.pair, tick.generation, tick.candidates)
+            obstacles = pop.xyz[mask]
             in_odom = transform_points_2d(tick.published_pose, obstacles[:, :2])
             self.planner.update_obstacles(in_odom, tick.published_pose, self.rig.half_fov)
         change = self.planner.relax()
@@ -312,8 +315,12 @@ class FlyPipeline:
     def _snapshot(self, t_ns: int) -> None:
         self.snapshots += 1
         pop = self._published_population()  # immutable: the worker may read it
-        self._charge_distinctness(pop)
-        published = (self._published_pose, self._published_pair, self._published_generation)
+        published = (
+            self._published_pose,
+            self._published_pair,
+            self._published_generation,
+            self._published_candidates(pop),
+        )
         self._submit(self._snapshot_outputs, t_ns, pop, *published, self._odom.pose)
 
     def _snapshot_outputs(
@@ -323,6 +330,7 @@ class FlyPipeline:
         published_pose: Pose2D,
         pair: StereoPair | None,
         generation: int,
+        candidates: np.ndarray | None,
         robot_pose: Pose2D,
     ) -> _Outputs:
         """A snapshot's messages: the flies (with each fly's distinctness when the obstacle
@@ -331,8 +339,8 @@ class FlyPipeline:
         messages: list[tuple[str, int, Any]] = []
         if pop is not None:
             distinct = None
-            if self.config.obstacles.uses_distinctness:
-                distinct = self._obstacles(pop, pair, generation)[1]
+            if candidates is not None:
+                distinct = self._obstacles(pop, pair, generation, candidates)[1]
             uv, colours = self._overlay(pop)
             cloud = encode.point_cloud(
                 pop.xyz, pop.fitness, t_ns, contract.BASE_FRAME, pop.age, distinct=distinct
@@ -346,30 +354,38 @@ class FlyPipeline:
                 messages.append((contract.TF, t_ns, encode.frame_transforms([transform], t_ns)))
         return _Outputs(messages + self._planner_snapshot(t_ns, robot_pose).messages)
 
-    def _charge_distinctness(self, pop: Population | None) -> None:
-        """Count the fitness evaluations measuring the distinctness of ``pop`` (the published
-        population) will cost, once a publication, to charge them to the next generation."""
+    def _published_candidates(self, pop: Population | None) -> np.ndarray | None:
+        """The flies of ``pop`` (the published population) whose distinctness the rule
+        reads (None when it reads none), found once a publication; the fitness evaluations
+        measuring them will cost are charged to the next generation then."""
         rule = self.config.obstacles
         if pop is None or not rule.uses_distinctness:
-            return
-        if self._charged_generation != self._published_generation:
-            self._charged_generation = self._published_generation
-            self._owed_evaluations += rule.distinct_evaluations(pop.xyz, pop.fitness, pop.age)
+            return None
+        if self._candidates is None or self._candidates[0] != self._published_generation:
+            candidates = rule.candidates(pop.xyz, pop.fitness, pop.age)
+            self._candidates = (self._published_generation, candidates)
+            self._owed_evaluations += rule.distinct_evaluations(candidates)
+        return self._candidates[1]
 
     def _obstacles(
-        self, pop: Population, pair: StereoPair | None, generation: int
+        self,
+        pop: Population,
+        pair: StereoPair | None,
+        generation: int,
+        candidates: np.ndarray | None,
     ) -> tuple[np.ndarray, np.ndarray | None]:
         """The obstacle rule's mask of the population published at ``generation``, and the
-        flies' distinctness (None unless the rule reads it), measured once a publication:
-        planner ticks and snapshots of the same population share it (both run in order on
-        the worker thread, or both on the caller's)."""
+        distinctness of its ``candidates`` (None when the rule reads none), measured once a
+        publication: planner ticks and snapshots of the same population share it (both run
+        in order on the worker thread, or both on the caller's)."""
         if self._evidence is not None and self._evidence[0] == generation:
             return self._evidence[1], self._evidence[2]
         rule = self.config.obstacles
-        distinct = rule.distinct_of(
-            pop.xyz, pop.fitness, pop.age, pair, self.rig, self.config.engine
-        )
-        mask = rule.mask(pop.xyz, pop.fitness, pop.age, distinct)
+        if candidates is None:
+            mask, distinct = rule.mask(pop.xyz, pop.fitness, pop.age), None
+        else:
+            distinct = rule.distinct_of(pop.xyz, candidates, pair, self.rig, self.config.engine)
+            mask = rule.keep(candidates, distinct)
         self._evidence = (generation, mask, distinct)
         return mask, distinct
 

@@ -105,16 +105,20 @@ def test_rule_measures_only_its_candidates_and_drops_indistinct_flies():
     age = np.full(20, 5)
     rule = ObstacleFlies(quantile=0.1, min_age=3, min_distinctness=1.5)
     pair = StereoPair(0, left, right)
-    distinct = rule.distinct_of(xyz, fitness, age, pair, RIG, EngineConfig(window=WINDOW,
-                                guard=GUARD))  # fmt: skip
+    candidates = rule.candidates(xyz, fitness, age)
+    assert rule.distinct_evaluations(candidates) == 18 * (1 + len(rule.distinct_shifts))
+    engine = EngineConfig(window=WINDOW, guard=GUARD)
+    distinct = rule.distinct_of(xyz, candidates, pair, RIG, engine)
     assert np.isnan(distinct[[0, 10]]).all() and not np.isnan(np.delete(distinct, [0, 10])).any()
     keep = rule.mask(xyz, fitness, age, distinct)
     assert keep.tolist() == [False] + [True] * 9 + [False] * 10
+    assert rule.keep(candidates, distinct).tolist() == keep.tolist()
     with pytest.raises(ValueError, match="needs each fly's distinctness"):
         rule.mask(xyz, fitness, age)
     # the paper's rule (off) measures nothing and needs nothing
     off = ObstacleFlies(quantile=0.1, min_age=3, min_distinctness=0.0)
-    assert off.distinct_of(xyz, fitness, age, pair, RIG, EngineConfig()) is None
+    assert off.distinct_of(xyz, candidates, pair, RIG, EngineConfig()) is None
+    assert off.distinct_evaluations(candidates) == 0
     assert off.mask(xyz, fitness, age).sum() == 18
 
 
