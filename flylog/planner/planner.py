@@ -370,6 +370,10 @@ class HarmonicPlanner:
         self._u[self._border] = 1.0
         weighted = self._obstacles & ~self._border
         weighted[gi, gj] = False
+        # freed obstacle cells restart from U = 1, their value as the obstacle's skin: the
+        # state holds a × value there (0.1 at a = 0.1), which as a free cell would be a deep
+        # transient sink next to the obstacle, drawing the robot to it until relaxed away
+        self._u[self._weighted & ~weighted] = 1.0
         self._u[weighted] = a * self._obstacle_values[weighted]
         # freed obstacle cells may hold values above 1, which no free cell has at convergence
         np.minimum(self._u, 1.0, out=self._u, where=~self._fixed)

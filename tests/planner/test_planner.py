@@ -1,3 +1,4 @@
+import dataclasses
 import math
 
 import numpy as np
@@ -351,6 +352,20 @@ def test_cleared_obstacles_relax_back_to_the_obstacle_free_field():
     assert p.potential.max() == 1.0  # the freed core (1 + rise) is clipped back to 1
     p.relax_until(1e-10, 20_000)
     np.testing.assert_allclose(p.potential, fresh.potential, atol=1e-6)
+
+
+@pytest.mark.parametrize("weight", [1.0, 0.1])
+def test_freed_obstacle_cells_restart_at_the_skin_value_not_as_a_sink(weight):
+    p = _converged(dataclasses.replace(SMALL, obstacle_weight=weight))
+    wall = np.column_stack([np.full(100, 1.0), np.linspace(-0.5, 0.5, 100)])
+    p.update_obstacles(wall, Pose2D(0.0, 0.0, 0.0), 0.8)
+    p.update_obstacles(wall, Pose2D(0.0, 0.0, 0.0), 0.8)  # confirmed
+    was = p.obstacle_mask.copy()
+    assert was.any()
+    p.relax(50)
+    p.clear_obstacles()
+    # before any sweep the freed cells hold U = 1, not weight × value (a sink at 0.1)
+    np.testing.assert_array_equal(p.potential[was], 1.0)
 
 
 def _corridor_planner(
