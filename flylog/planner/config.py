@@ -125,6 +125,16 @@ class PlannerConfig:
         unit="m",
         min=0.0,
     )
+    sonar_range: float = param(
+        1.0,
+        help="a sonar echo nearer than this marks the cells along its arc (the range, across "
+        "the cone) as obstacles at once, without confirmation: near the robot and beside the "
+        "cameras' view the flies see nothing (nearer than engine.d_min, or not in the "
+        "images), and a robot turning towards the goal swept into obstacles it had never "
+        "seen (0 = obstacles from the flies only, as in the paper)",
+        unit="m",
+        min=0.0,
+    )
     view_range: float = param(
         6.0, help="default camera view range for obstacle updates", unit="m", min=0.0
     )

@@ -12,6 +12,7 @@ import numpy as np
 
 from flylog.geometry import Pose2D
 from flylog.planner.grid import GridGeometry
+from flylog.sensors import SonarReading
 
 
 def fly_counts(geometry: GridGeometry, points_xy: np.ndarray) -> np.ndarray:
@@ -49,6 +50,22 @@ def dense_cells(
     window_area = ((2 * half_width + 1) * cell_size) ** 2
     density = box_sum(counts, half_width) / window_area
     return (counts > 0) & (density >= threshold)
+
+
+def sonar_arc_points(reading: SonarReading, max_range: float, spacing: float) -> np.ndarray:
+    """(M, 2) base_link points along the arc of every sonar whose echo is nearer than
+    ``max_range``: the echo came from somewhere on that arc (its range across the cone),
+    ``spacing`` apart at most so every cell the arc crosses holds one."""
+    fired = reading.fired & (reading.ranges <= max_range)
+    if not fired.any():
+        return np.empty((0, 2))
+    mounts, ranges = reading.mounts[fired], reading.ranges[fired]
+    half = reading.half_cone
+    n = max(2, math.ceil(2.0 * half * float(ranges.max()) / spacing) + 1)
+    angles = mounts[:, 2:3] + np.linspace(-half, half, n)[None, :]  # (k, n)
+    x = mounts[:, 0:1] + ranges[:, None] * np.cos(angles)
+    y = mounts[:, 1:2] + ranges[:, None] * np.sin(angles)
+    return np.stack([x.ravel(), y.ravel()], axis=1)
 
 
 def polar_of_cells(

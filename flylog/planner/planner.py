@@ -152,6 +152,7 @@ class HarmonicPlanner:
         robot_pose: Pose2D,
         half_fov: float,
         view_range: float | None = None,
+        sonar_xy: np.ndarray | None = None,
     ) -> int:
         """Fold the obstacle flies seen now (points (M, 2) or (M, 3) in odom) into the grid.
 
@@ -159,8 +160,10 @@ class HarmonicPlanner:
         become obstacles; cells outside the view keep
         what they were; with ``clear_free_cells``, a remembered cell seen free (in view,
         not dense, not in a detection's shadow, at least ``clear_min_range`` away)
-        ``clear_after_views`` updates in a row is forgotten. Returns how many inflated
-        obstacle cells changed.
+        ``clear_after_views`` updates in a row is forgotten. The cells holding a point of
+        ``sonar_xy`` (M, 2) in odom (sonar echoes: :func:`~flylog.planner.obstacles.
+        sonar_arc_points`) become obstacles at once and are not seen free this update.
+        Returns how many inflated obstacle cells changed.
         """
         cfg = self.config
         vr = cfg.view_range if view_range is None else float(view_range)
@@ -179,15 +182,22 @@ class HarmonicPlanner:
         count[rows, cols] = np.where(dense_now, self._seen_dense_count[rows, cols] + 1, 0)
         self._seen_dense_count = count
         detected = dense_now & (count[rows, cols] >= cfg.confirm_after_views)
+        echoed = None
+        if sonar_xy is not None and len(sonar_xy):
+            echoed = obs.fly_counts(self.geometry, sonar_xy) > 0
         if cfg.clear_free_cells:
             # a dense cell is not free, and hides what lies behind it, confirmed or not
             free = obs.seen_free(in_view, dense_now, rng, bearing, half_fov, cfg.cell_size, vr)
             free &= rng >= cfg.clear_min_range
+            if echoed is not None:
+                free &= ~echoed[rows, cols]
             seen = np.zeros_like(self._seen_free_count)
             seen[rows, cols] = np.where(free, self._seen_free_count[rows, cols] + 1, 0)
             self._seen_free_count = seen
             self._remembered &= self._seen_free_count < cfg.clear_after_views
         self._remembered[rows, cols] |= detected
+        if echoed is not None:
+            self._remembered |= echoed
         before, before_values = self._obstacles, self._obstacle_values
         self._set_obstacles()
         changed = int(np.count_nonzero(before != self._obstacles))

@@ -24,6 +24,7 @@ from flylog.geometry import Pose2D, StereoRig, relative, transform_points_2d
 from flylog.io import contract, encode
 from flylog.io.readahead import lower_thread_priority
 from flylog.planner import Command, HarmonicPlanner, Status
+from flylog.planner.obstacles import sonar_arc_points
 from flylog.replay.config import ReplayConfig, Stereo
 from flylog.sensors import OdomReading, SonarReading, StereoPair
 
@@ -46,6 +47,7 @@ class _TickInputs:
     odom: OdomReading  # the newest odometry delivered
     pair: StereoPair | None  # the images the population was scored on (None: none yet)
     candidates: np.ndarray | None  # the flies whose distinctness the rule reads (or None)
+    sonar: tuple[SonarReading, Pose2D] | None  # the newest sonar reading, and odometry then
 
 
 @dataclass(frozen=True)
@@ -140,6 +142,7 @@ class FlyPipeline:
         self._published_image_ns = -1
         self._published_generation = 0
         self._pair: StereoPair | None = None  # newest stereo pair delivered
+        self._sonar: tuple[SonarReading, Pose2D] | None = None  # newest, and odometry then
         self._published_pair: StereoPair | None = None  # ... when the population was published
         self._evidence: tuple[int, np.ndarray, np.ndarray | None] | None = None  # _obstacles
         # Distinctness is measured once a published population, on the worker, for the
@@ -170,6 +173,7 @@ class FlyPipeline:
             self._pair = record
         elif isinstance(record, SonarReading):
             self.engine.set_sonar(record)
+            self._sonar = (record, self._odom.pose)
         elif isinstance(record, OdomReading):
             if self._engine_pose is not None:
                 self.engine.apply_motion(relative(self._engine_pose, record.pose))
@@ -231,6 +235,7 @@ class FlyPipeline:
             self._odom,
             self._published_pair,
             self._published_candidates(pop),
+            self._sonar,
         )
         self._submit(self._run_tick, tick)
 
@@ -278,7 +283,9 @@ class FlyPipeline:
             mask, _ = self._obstacles(pop, tick.pair, tick.generation, tick.candidates)
             obstacles = pop.xyz[mask]
             in_odom = transform_points_2d(tick.published_pose, obstacles[:, :2])
-            self.planner.update_obstacles(in_odom, tick.published_pose, self.rig.half_fov)
+            self.planner.update_obstacles(
+                in_odom, tick.published_pose, self.rig.half_fov, sonar_xy=self._echoes(tick)
+            )
         change = self.planner.relax()
         pose, t_ns = tick.odom.pose, tick.t_ns
         command = self.planner.command(pose, t_ns / 1e9)
@@ -309,6 +316,16 @@ class FlyPipeline:
             "potential_change": change,
         }
         return _Outputs(messages, command, row)
+
+    def _echoes(self, tick: _TickInputs) -> np.ndarray | None:
+        """The newest sonar reading's near echoes (planner.sonar_range) as arc points in
+        odom, for the planner (None: none)."""
+        reach = self.config.planner.sonar_range
+        if tick.sonar is None or reach <= 0.0:
+            return None
+        reading, pose = tick.sonar
+        arcs = sonar_arc_points(reading, reach, 0.5 * self.config.planner.cell_size)
+        return transform_points_2d(pose, arcs) if len(arcs) else None
 
     # --- snapshots -------------------------------------------------------------------------
 

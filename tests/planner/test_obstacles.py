@@ -7,6 +7,7 @@ from flylog.geometry import Pose2D
 from flylog.planner import HarmonicPlanner, PlannerConfig
 from flylog.planner import obstacles as obs
 from flylog.planner.grid import GridGeometry
+from flylog.sensors import SonarReading
 
 # 10 m grid at 0.1 m centred on the origin; the robot at the origin looking along +x.
 CFG = PlannerConfig(
@@ -227,3 +228,38 @@ def test_neighbour_factor_is_one_over_the_neighbours_total_weight():
     for i, j in [(1, 3), (3, 3), (2, 2), (2, 4)]:
         assert f[i, j] == pytest.approx(1.0 / 3.1, rel=1e-15)
     assert np.count_nonzero(f != 0.25) == 4
+
+
+def _reading(ranges, angles_deg=(-50.0, 0.0, 50.0)) -> SonarReading:
+    yaw = np.radians(angles_deg)
+    mounts = np.stack([0.2 * np.cos(yaw), 0.2 * np.sin(yaw), yaw], axis=1)
+    return SonarReading(0, np.array(ranges, float), mounts, math.radians(15.0), 3.0)
+
+
+def test_sonar_arc_points_lie_on_the_near_echoes_arcs_only():
+    reading = _reading([0.6, math.nan, 2.0])  # the 50° sonar's echo is beyond the reach
+    pts = obs.sonar_arc_points(reading, 1.0, 0.05)
+    mount = reading.mounts[0]
+    dx, dy = pts[:, 0] - mount[0], pts[:, 1] - mount[1]
+    np.testing.assert_allclose(np.hypot(dx, dy), 0.6)
+    bearing = np.degrees(np.arctan2(dy, dx))
+    assert bearing.min() == pytest.approx(-57.5) and bearing.max() == pytest.approx(-42.5)
+    assert np.max(np.hypot(*np.diff(pts, axis=0).T)) <= 0.05 + 1e-12  # no cell skipped
+    assert obs.sonar_arc_points(_reading([math.nan] * 3), 1.0, 0.05).shape == (0, 2)
+
+
+def test_sonar_echo_cells_become_obstacles_at_once_and_are_not_seen_free():
+    # the echo lies in the cameras' view, where no fly is: the echo wins this update
+    p = _planner(confirm_after_views=3, clear_after_views=1)
+    echo = obs.sonar_arc_points(_reading([math.nan, 0.75, math.nan]), 1.0, 0.05)
+    p.update_obstacles(np.empty((0, 2)), ROBOT, FOV, sonar_xy=echo)
+    cell = _cell(p, 0.95, 0.01)  # the arc crosses x = 0.95 at y = 0.01
+    assert p.detected_mask[cell]
+    # without the echo, the cell in view and free of flies is forgotten
+    p.update_obstacles(np.empty((0, 2)), ROBOT, FOV)
+    assert not p.detected_mask[cell]
+    # beside the view the echo is remembered
+    behind = Pose2D(0.0, 0.0, math.pi)
+    p.update_obstacles(np.empty((0, 2)), behind, FOV, sonar_xy=echo)
+    p.update_obstacles(np.empty((0, 2)), behind, FOV)
+    assert p.detected_mask[cell]
