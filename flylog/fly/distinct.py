@@ -11,8 +11,14 @@ right projection moved along the epipolar line and the left one kept. A value we
 means the match is a peak along the line; about 1 or below, that it is not evidence of a
 surface at that depth.
 
+With ``at_infinity``, one more rival: the same left pixel at disparity 0, the background at
+infinity. The sky (and anything beyond ``d_max``) matches best there, a disparity no fly can
+hold; along a row of a repeated or striped sky a fly settles on the best false match it can
+reach, which may be a peak among its neighbours (shifts ±2, ±4 px) but never beats the true
+match at infinity.
+
 The fitness is :mod:`flylog.fly.fitness`'s (compiled kernel or numpy reference, bit-identical),
-so distinctness costs ``1 + len(shifts)`` evaluations a fly.
+so distinctness costs ``1 + len(shifts)`` evaluations a fly (one more ``at_infinity``).
 """
 
 from __future__ import annotations
@@ -32,6 +38,10 @@ from flylog.geometry import StereoRig
 # Distinctness of a fly no shift can be compared with (every shifted disparity ≤ 0 or off the
 # image, or all of them score 0): its match has no rival on the line.
 NO_RIVAL = math.inf
+
+# The rival at infinity sits at this disparity (px): both projections round to the same
+# column (fitness reads whole pixels), unless the left one lies within this of a half pixel.
+INFINITY_DISPARITY = 1e-9
 
 
 def shifted_along_epipolar(
@@ -54,6 +64,16 @@ def shifted_along_epipolar(
     return out, valid
 
 
+def at_infinity(xyz: np.ndarray, rig: StereoRig) -> tuple[np.ndarray, np.ndarray]:
+    """(N, 3) points on the left rays of ``xyz`` (N, 3) at disparity ~0 (the background at
+    infinity), and (N,) bool: whether the fly is in front of the cameras."""
+    xyz = np.asarray(xyz, dtype=np.float64)
+    u_left, _, v, depth = rig.project(xyz)
+    far = rig.focal_px * rig.baseline / INFINITY_DISPARITY
+    valid = depth > 0
+    return np.where(valid[:, None], rig.backproject(u_left, v, np.full(len(xyz), far)), xyz), valid
+
+
 def distinctness(
     left: np.ndarray,
     right: np.ndarray,
@@ -65,10 +85,12 @@ def distinctness(
     *,
     gradient: Gradient = Gradient.NORM,
     use_numba: bool = True,
+    infinity: bool = False,
 ) -> np.ndarray:
     """(N,) float64: each fly's vision fitness over the best vision fitness of its left pixel
-    at the disparities shifted by ``shifts`` (px). 0 for a fly whose own fitness is not
-    positive (invalid or no contrast), :data:`NO_RIVAL` for one with no valid rival."""
+    at the disparities shifted by ``shifts`` (px), and with ``infinity`` at disparity 0 too
+    (:func:`at_infinity`). 0 for a fly whose own fitness is not positive (invalid or no
+    contrast), :data:`NO_RIVAL` for one with no valid rival."""
     if not shifts:
         msg = "distinctness needs at least one disparity shift"
         raise ValueError(msg)
@@ -77,10 +99,14 @@ def distinctness(
     if n == 0:
         return np.empty(0)
     shifted, valid = shifted_along_epipolar(xyz, rig, shifts)
+    if infinity:
+        far, in_front = at_infinity(xyz, rig)
+        shifted = np.concatenate([shifted, far[None]])
+        valid = np.concatenate([valid, in_front[None]])
     points = np.concatenate([xyz[None], shifted]).reshape(-1, 3)
     fitness = fitness_numba if use_numba else fitness_numpy
     scores = fitness(left, right, points, rig, window, guard, gradient=gradient)
-    scores = scores.reshape(len(shifts) + 1, n)
+    scores = scores.reshape(len(shifted) + 1, n)
     own = scores[0]
     rivals = np.where(valid, scores[1:], INVALID_FITNESS).max(axis=0)
     out = np.full(n, NO_RIVAL)

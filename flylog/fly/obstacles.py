@@ -91,6 +91,12 @@ class ObstacleFlies:
         help="disparity shifts at which a fly's rivals along the epipolar line are scored",
         unit="px",
     )
+    distinct_at_infinity: bool = param(
+        True,
+        help="one more rival: the fly's left pixel at disparity 0, the background at "
+        "infinity (the sky matches best there, where no fly can be: on a striped sky flies "
+        "settled on false matches that beat their ±2 and ±4 px neighbours)",
+    )
 
     def __post_init__(self) -> None:
         if self.min_distinctness > 0 and (not self.distinct_shifts or 0 in self.distinct_shifts):
@@ -148,7 +154,8 @@ class ObstacleFlies:
         """(N,) float: the distinctness of the ``candidates`` (from :meth:`candidates`),
         measured on ``pair`` (the images their fitness was), NaN for the others; None when
         the rule does not use distinctness. Costs ``1 + len(distinct_shifts)`` fitness
-        evaluations a candidate (:meth:`distinct_evaluations`), with the engine's fitness
+        evaluations a candidate, one more with ``distinct_at_infinity``
+        (:meth:`distinct_evaluations`), with the engine's fitness
         (window, guard, gradient)."""
         if not self.uses_distinctness:
             return None
@@ -161,7 +168,7 @@ class ObstacleFlies:
         out[measured] = distinctness(
             pair.left, pair.right, np.asarray(xyz)[measured], rig, engine.window, engine.guard,
             self.distinct_shifts, gradient=engine.gradient,
-            use_numba=engine.backend is Backend.NUMBA,
+            use_numba=engine.backend is Backend.NUMBA, infinity=self.distinct_at_infinity,
         )  # fmt: skip
         return out
 
@@ -169,11 +176,15 @@ class ObstacleFlies:
         """The fitness evaluations :meth:`distinct_of` makes for these ``candidates``."""
         if not self.uses_distinctness:
             return 0
-        return int(np.count_nonzero(candidates)) * (1 + len(self.distinct_shifts))
+        return int(np.count_nonzero(candidates)) * self._evaluations_a_fly
 
     def most_distinct_evaluations(self, flies: int) -> int:
         """The most :meth:`distinct_evaluations` can be for a population of ``flies``."""
-        return flies * (1 + len(self.distinct_shifts)) if self.uses_distinctness else 0
+        return flies * self._evaluations_a_fly if self.uses_distinctness else 0
+
+    @property
+    def _evaluations_a_fly(self) -> int:
+        return 1 + len(self.distinct_shifts) + int(self.distinct_at_infinity)
 
 
 def obstacle_points(

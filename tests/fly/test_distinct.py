@@ -8,7 +8,7 @@ import pytest
 
 from flylog.errors import ConfigError
 from flylog.fly.config import EngineConfig, Gradient
-from flylog.fly.distinct import NO_RIVAL, distinctness, shifted_along_epipolar
+from flylog.fly.distinct import NO_RIVAL, at_infinity, distinctness, shifted_along_epipolar
 from flylog.fly.obstacles import ObstacleFlies
 from flylog.geometry import StereoRig
 from flylog.sensors import StereoPair
@@ -90,6 +90,43 @@ def test_numba_and_numpy_agree_bit_for_bit():
         assert (a[:5] == 0.0).all()
 
 
+def _striped_sky(period: int) -> np.ndarray:
+    """Columns repeat every ``period`` px, rows vary (a separable pattern, like the
+    simulator's sky); both cameras see it at disparity 0 (the same image)."""
+    rng = np.random.default_rng(5)
+    cols = rng.integers(0, 256, period)[np.arange(RIG.width) % period]
+    rows = rng.uniform(0.5, 1.0, RIG.height)
+    grey = (rows[:, None] * cols[None, :]).astype(np.uint8)
+    return np.ascontiguousarray(np.repeat(grey[:, :, None], 3, axis=2))
+
+
+@pytest.mark.parametrize("use_numba", [False, True])
+def test_a_false_match_on_a_striped_sky_loses_to_the_rival_at_infinity(use_numba):
+    sky = _striped_sky(period=TRUE_DISPARITY)
+    phantom = _flies_at(TRUE_DISPARITY)  # one period off: a perfect false match
+    args = (sky, sky, phantom, RIG, WINDOW, GUARD, SHIFTS)
+    near_only = distinctness(*args, use_numba=use_numba)
+    with_infinity = distinctness(*args, use_numba=use_numba, infinity=True)
+    assert near_only.min() > 10.0  # its ±2, ±4 px neighbours do not match: it passes
+    np.testing.assert_array_equal(with_infinity, 1.0)  # infinity matches as well
+    # a real surface at that disparity is not touched: infinity is a random mismatch there
+    left, right = _textured_pair()
+    real = distinctness(left, right, phantom, RIG, WINDOW, GUARD, SHIFTS, infinity=True,
+                        use_numba=use_numba)  # fmt: skip
+    assert real.min() > 10.0
+
+
+def test_the_rival_at_infinity_keeps_the_left_pixel_at_disparity_zero():
+    xyz = _flies_at(TRUE_DISPARITY)
+    far, valid = at_infinity(xyz, RIG)
+    u, r, v, _ = RIG.project(far)
+    u0, _, v0, _ = RIG.project(xyz)
+    assert valid.all()
+    np.testing.assert_array_equal(np.floor(u + 0.5), np.floor(u0 + 0.5))
+    np.testing.assert_array_equal(np.floor(r + 0.5), np.floor(u0 + 0.5))  # same column
+    np.testing.assert_array_equal(np.floor(v + 0.5), np.floor(v0 + 0.5))
+
+
 def test_a_fly_without_rivals_has_no_rival_value():
     left, right = _textured_pair()
     xyz = _flies_at(1.5, 5)  # every negative shift takes the disparity to ≤ 0
@@ -106,7 +143,11 @@ def test_rule_measures_only_its_candidates_and_drops_indistinct_flies():
     rule = ObstacleFlies(quantile=0.1, min_age=3, min_distinctness=1.5)
     pair = StereoPair(0, left, right)
     candidates = rule.candidates(xyz, fitness, age)
-    assert rule.distinct_evaluations(candidates) == 18 * (1 + len(rule.distinct_shifts))
+    # the fly itself, its four shifted rivals and the rival at infinity
+    assert rule.distinct_evaluations(candidates) == 18 * (1 + 4 + 1)
+    no_infinity = ObstacleFlies(quantile=0.1, min_age=3, min_distinctness=1.5,
+                                distinct_at_infinity=False)  # fmt: skip
+    assert no_infinity.distinct_evaluations(candidates) == 18 * (1 + 4)
     engine = EngineConfig(window=WINDOW, guard=GUARD)
     distinct = rule.distinct_of(xyz, candidates, pair, RIG, engine)
     assert np.isnan(distinct[[0, 10]]).all() and not np.isnan(np.delete(distinct, [0, 10])).any()
