@@ -34,9 +34,9 @@ from flylog.fly.fusion import (
     sonar_fused,
     sonar_immigrants,
 )
+from flylog.fly.generation import generation_kernel
 from flylog.fly.neighbours import NeighbourCounter, neighbour_counts_numpy
 from flylog.fly.operators import (
-    immigrants_and_children_into,
     newcomer_constants,
     newcomers_numpy,
     shared_fitness,
@@ -120,6 +120,16 @@ class FlyEngine:
         self._fused_with: SonarReading | object | None = None  # _MOVED after a motion
         self._generation = 0
         self._scouts = Scouting(config, rig, self._margin)  # see step()
+        # what _step_numba needs, worked out once
+        self._fuse_sonar = config.sonar_fitness and config.sonar_bonus != 0
+        self._sonar_share = (
+            round(config.sonar_immigration_fraction * config.immigrants)
+            if config.sonar_immigration
+            else 0
+        )
+        self._guard = float(config.guard)
+        self._stale_index = np.empty(config.flies, dtype=np.int64)
+        self._row_scratch = np.empty((3, max(config.flies, rig.height + 2)), dtype=np.int64)
 
     # --- inputs -----------------------------------------------------------------------------
 
@@ -189,6 +199,8 @@ class FlyEngine:
         if self._left is None:
             msg = "the fly engine has no images yet: call set_images() before step()"
             raise FlylogError(msg)
+        if self._numba:
+            return self._step_numba()
         cfg = self.config
         pop = self._pop
         # after a step every fly is evaluated; new images make them all stale
@@ -200,38 +212,22 @@ class FlyEngine:
         nxt = self._spare
         n_immigrants = self._n_immigrants
         # random numbers in this order: sonar arcs, uniform immigrants, breeding
-        if self._numba:
-            if self._sharing:
-                k = pop.select_sharing_into(
-                    nxt, self._survivors, cfg.sharing_coefficient, self._work,
-                    self._rig_constants, self._radius, self._counter,
-                )  # fmt: skip
-            else:
-                k = pop.select_into(nxt, self._survivors, None, 0.0, self._work)
-            n_children = cfg.flies - k - n_immigrants
-            at = k + n_children
-            n_sonar = immigrants_and_children_into(
-                self._rng, nxt.xyz[:k], *self._breed, self._newcomer_k, self._arcs,
-                self._half_cone, cfg.sonar_tolerance, self._arc_k, _SONAR_TRIES,
-                self._n_sonar(n_immigrants), nxt.xyz[k:at], nxt.xyz[at:],
-            )  # fmt: skip
-        else:
-            counts = self._neighbour_counts(pop) if self._sharing else None
-            ranked = pop.fitness if counts is None else shared_fitness(
-                pop.fitness, counts, cfg.sharing_coefficient
-            )  # fmt: skip
-            keep = survivor_indices(ranked, self._survivors)
-            k = len(keep)
-            n_children = cfg.flies - k - n_immigrants
-            from_sonar = self._sonar_immigrants(n_immigrants)
-            n_sonar = len(from_sonar)
-            rate2, rate3, sigma_px, sigma_d = self._breed
-            children, uniform = newcomers_numpy(
-                self._rng, pop.xyz[keep], n_children, n_immigrants - len(from_sonar), self.rig,
-                rate2=rate2, rate3=rate3, sigma_px=sigma_px, sigma_disparity_px=sigma_d,
-                d_min=cfg.d_min, d_max=cfg.d_max, margin=self._margin,
-            )  # fmt: skip
-            pop.survivors_then(keep, np.concatenate([children, from_sonar, uniform]), out=nxt)
+        counts = self._neighbour_counts(pop) if self._sharing else None
+        ranked = pop.fitness if counts is None else shared_fitness(
+            pop.fitness, counts, cfg.sharing_coefficient
+        )  # fmt: skip
+        keep = survivor_indices(ranked, self._survivors)
+        k = len(keep)
+        n_children = cfg.flies - k - n_immigrants
+        from_sonar = self._sonar_immigrants(n_immigrants)
+        n_sonar = len(from_sonar)
+        rate2, rate3, sigma_px, sigma_d = self._breed
+        children, uniform = newcomers_numpy(
+            self._rng, pop.xyz[keep], n_children, n_immigrants - len(from_sonar), self.rig,
+            rate2=rate2, rate3=rate3, sigma_px=sigma_px, sigma_disparity_px=sigma_d,
+            d_min=cfg.d_min, d_max=cfg.d_max, margin=self._margin,
+        )  # fmt: skip
+        pop.survivors_then(keep, np.concatenate([children, from_sonar, uniform]), out=nxt)
         # Scouting immigrants (flylog.fly.scouts): while turning, the last uniform immigrants
         # move to where new content enters the view; their candidates' evaluations are
         # charged here, the chosen flies are scored with the other newcomers.
@@ -253,6 +249,68 @@ class FlyEngine:
 
     # --- internals --------------------------------------------------------------------------
 
+    def _step_numba(self) -> GenerationStats:
+        """:meth:`step` in one compiled call (:func:`~flylog.fly.generation.generation_kernel`:
+        the same kernels, in the same order, as the numpy path's steps), after the parallel
+        fitness kernel when enough flies are stale to make it pay."""
+        cfg, pop, nxt = self.config, self._pop, self._spare
+        reading = self._sonar if self._fuse_sonar else None
+        fuse_all = reading is not self._fused_with
+        self._fused_with = reading
+        sonars = self._no_sonars if reading is None else self._sonars
+        left, right, channels = self._rows
+        evaluations = 0
+        if cfg.flies >= PARALLEL_MIN_EVALUATIONS and pop.stale.any():
+            stale = np.flatnonzero(pop.stale)
+            evaluations = len(stale)
+            if evaluations >= PARALLEL_MIN_EVALUATIONS:
+                fitness_into(
+                    left, right, channels, pop.xyz, stale, self._rig_constants, cfg.window,
+                    float(cfg.guard), self._gy_weight, pop.vision,
+                )  # fmt: skip
+                pop.stale[stale] = False
+                pop.stamp_ns[stale] = self._stamp_ns
+                if not fuse_all:  # the kernel fuses only the flies it scores: these too
+                    self._fuse(stale, sonars)
+            else:
+                evaluations = 0
+        n_immigrants = self._n_immigrants
+        n_sonar = 0 if self._sonar is None else self._sonar_share
+        made, k, n_children, n_sonar = generation_kernel(
+            self._rng, left, right, channels, self._rig_constants, cfg.window, self._guard,
+            self._gy_weight, self._stamp_ns,
+            pop.xyz, pop.fitness, pop.vision, pop.stale, pop.stamp_ns, pop.age,
+            nxt.xyz, nxt.fitness, nxt.vision, nxt.stale, nxt.stamp_ns, nxt.age,
+            self._stale_index, self._all, fuse_all, sonars, self._cos_half_cone,
+            cfg.sonar_tolerance, cfg.sonar_bonus, self._survivors, self._sharing,
+            cfg.sharing_coefficient, self._work, self._radius, *self._counter.scratch(cfg.flies),
+            self._counter.counts, *self._breed, self._newcomer_k, self._arcs, self._half_cone,
+            self._arc_k, _SONAR_TRIES, n_sonar, n_immigrants,
+            *self._scouts.kernel_args(n_immigrants), self._newcomers, self._row_scratch,
+        )  # fmt: skip
+        self._pop, self._spare = nxt, pop
+        self._generation += 1
+        return GenerationStats(
+            generation=self._generation,
+            evaluations=evaluations + made,
+            image_stamp_ns=self._stamp_ns,
+            survivors=k,
+            offspring=n_children,
+            immigrants=n_immigrants,
+            sonar_immigrants=n_sonar,
+        )
+
+    def _fuse(self, index: np.ndarray, sonars: np.ndarray) -> None:
+        """The fused fitness of the flies ``index`` from their vision fitness."""
+        pop, cfg = self._pop, self.config
+        left, right, channels = self._rows
+        score_into(
+            left, right, channels, pop.xyz, self._none, self._rig_constants, cfg.window,
+            float(cfg.guard), self._stamp_ns, pop.vision, pop.stale, pop.stamp_ns, sonars,
+            self._cos_half_cone, cfg.sonar_tolerance, cfg.sonar_bonus, index, pop.fitness,
+            self._gy_weight,
+        )  # fmt: skip
+
     def _random(self, n: int) -> np.ndarray:
         cfg = self.config
         return random_flies(
@@ -270,39 +328,15 @@ class FlyEngine:
         )
 
     def _score(self, index: np.ndarray) -> int:
-        """Vision fitness of the flies ``index`` (all stale) on the newest images, then the
-        fused fitness of those (of every fly if the reading changed or the flies moved).
-        Returns how many were evaluated."""
-        cfg = self.config
-        reading = self._sonar if cfg.sonar_fitness and cfg.sonar_bonus != 0 else None
+        """The numpy path's scoring: vision fitness of the flies ``index`` (all stale) on the
+        newest images, then the fused fitness of those (of every fly if the reading changed
+        or the flies moved). Returns how many were evaluated."""
+        reading = self._sonar if self._fuse_sonar else None
         fuse = index
         if reading is not self._fused_with:
             fuse, self._fused_with = self._all, reading
-        if self._numba:
-            self._score_numba(index, fuse, self._no_sonars if reading is None else self._sonars)
-        else:
-            self._score_numpy(index, fuse, reading)
+        self._score_numpy(index, fuse, reading)
         return len(index)
-
-    def _score_numba(self, index: np.ndarray, fuse: np.ndarray, sonars: np.ndarray) -> None:
-        """One compiled call (:func:`~flylog.fly.fusion.score_into`), after the parallel
-        fitness kernel when there are enough flies to make it pay."""
-        pop, cfg = self._pop, self.config
-        left, right, channels = self._rows
-        if len(index) >= PARALLEL_MIN_EVALUATIONS:
-            fitness_into(
-                left, right, channels, pop.xyz, index, self._rig_constants, cfg.window,
-                float(cfg.guard), self._gy_weight, pop.vision,
-            )  # fmt: skip
-            pop.stale[index] = False
-            pop.stamp_ns[index] = self._stamp_ns
-            index = self._none
-        score_into(
-            left, right, channels, pop.xyz, index, self._rig_constants, cfg.window,
-            float(cfg.guard), self._stamp_ns, pop.vision, pop.stale, pop.stamp_ns, sonars,
-            self._cos_half_cone, cfg.sonar_tolerance, cfg.sonar_bonus, fuse, pop.fitness,
-            self._gy_weight,
-        )  # fmt: skip
 
     def _score_numpy(
         self, index: np.ndarray, fuse: np.ndarray, reading: SonarReading | None

@@ -234,7 +234,9 @@ def _prefetch_window(lflat, rflat, bl, br, stride, window, lanes):  # pragma: no
         br += stride
 
 
-@numba.njit(cache=True, nogil=True)
+# error_model="numpy": no zero test per division (a fly behind the cameras divides by a depth
+# ≤ 0 and is discarded), so the projection and the last pass are vectorised loops.
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, guard, gy_weight,
                    masks, out):  # fmt: skip  # pragma: no cover - compiled
     """Fitness of flies index[start:stop]; ``masks`` from :func:`lane_masks` with the same
@@ -258,15 +260,29 @@ def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, gua
     first_r = np.empty(_BLOCK, dtype=np.int64)
     totals = np.empty(_BLOCK, dtype=np.int64)
     grads = np.empty(_BLOCK, dtype=np.int64)
+    # the projections of the block's flies, _project_valid's numbers: depth, u left, u right, v
+    proj = np.empty((4, _BLOCK))
+    fitness = np.empty(_BLOCK)
     scratch = np.empty((2, ncols), dtype=np.int32)  # for the windows of the lane loop
+    focal, cx, cy, half_b, mount_x, mount_h = k[0], k[1], k[2], k[3], k[4], k[5]
     for block in range(start, stop, _BLOCK):
         m = min(_BLOCK, stop - block)
-        for t in range(m):
+        for t in range(m):  # no branch: vectorised, four flies a division
             i = index[block + t]
-            row, cl, cr = _project_valid(xyz[i, 0], xyz[i, 1], xyz[i, 2], k, window, height, width)
-            if row < 0:
+            depth = xyz[i, 0] - mount_x
+            proj[0, t] = depth
+            proj[1, t] = cx - focal * (xyz[i, 1] - half_b) / depth
+            proj[2, t] = cx - focal * (xyz[i, 1] + half_b) / depth
+            proj[3, t] = cy - focal * (xyz[i, 2] - mount_h) / depth
+        for t in range(m):
+            ul = math.floor(proj[1, t] + 0.5)
+            ur = math.floor(proj[2, t] + 0.5)
+            vv = math.floor(proj[3, t] + 0.5)
+            inside = h <= vv <= height - 1 - h and h <= ul <= width - 1 - h
+            if not (proj[0, t] > 0.0 and inside and h <= ur <= width - 1 - h):
                 first_l[t] = -1
                 continue
+            row, cl, cr = int(vv), int(ul), int(ur)
             bl = (row - h) * stride + (cl - h) * channels
             br = (row - h) * stride + (cr - h) * channels
             first_l[t] = bl
@@ -298,12 +314,11 @@ def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, gua
                 totals[t] = _zssd_lanes(lflat, rflat, bl, br, stride, window, channels, scratch)
                 centre = bl + h * stride + h * channels
                 grads[t] = _sobel_norm2(lflat, centre, stride, channels, gy_weight)
+        for t in range(m):  # no branch: vectorised (an invalid fly's terms are stale)
+            zssd = totals[t] / n
+            fitness[t] = math.sqrt(math.sqrt(float(grads[t]))) / (zssd + denominator_guard)
         for t in range(m):
-            fitness = INVALID_FITNESS
-            if first_l[t] >= 0:
-                zssd = totals[t] / n
-                fitness = math.sqrt(math.sqrt(float(grads[t]))) / (zssd + denominator_guard)
-            out[index[block + t]] = fitness
+            out[index[block + t]] = fitness[t] if first_l[t] >= 0 else INVALID_FITNESS
 
 
 # The parallel kernel splits the flies into this many chunks. No reduction crosses flies, so

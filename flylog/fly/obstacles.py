@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -16,6 +17,22 @@ from flylog.sensors import StereoPair
 if TYPE_CHECKING:  # not at import: the metrics need only the rule, and no compiled code
     from flylog.fly.engine import FlyEngine
     from flylog.fly.population import Population
+
+
+def quantile_linear(values: np.ndarray, q: float) -> float:
+    """``np.quantile(values, q)`` (the default, linear method; same value, bit for bit) of a
+    non-empty 1-D float array without NaN, by one partition: ~4× faster than np.quantile's
+    general path, and the engine's thread finds the obstacle candidates for ~600 planner
+    ticks and snapshots a minute of replay."""
+    n = len(values)
+    virtual = (n - 1) * q  # numpy's arithmetic and clipping, then its _lerp
+    lo = min(max(math.floor(virtual), 0), n - 1)
+    hi = min(lo + 1, n - 1)
+    gamma = virtual - (-1 if virtual >= n - 1 else lo)
+    part = np.partition(values, (lo, hi)) if hi > lo else np.partition(values, lo)
+    a, b = float(part[lo]), float(part[hi])
+    diff = b - a
+    return b - diff * (1 - gamma) if gamma >= 0.5 else a + diff * gamma
 
 
 def obstacle_mask(
@@ -51,7 +68,7 @@ def obstacle_mask(
     if not positive.any():
         return np.zeros(len(fitness), dtype=bool)
     if quantile is not None:
-        threshold = float(np.quantile(fitness[positive], quantile))
+        threshold = quantile_linear(fitness[positive], quantile)
     else:
         threshold = float(min_fitness)  # type: ignore[arg-type]
     keep = positive & (fitness > threshold) & (xyz[:, 2] > ground_margin)

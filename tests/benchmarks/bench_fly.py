@@ -209,9 +209,9 @@ def _generation_figures(pair, depth, reading, rig) -> list[dict]:
 
 # The engine's kernels and operators, as cProfile names them (file, function).
 _PROFILED = [
-    ("fusion.py", "score_into"),  # fitness of the stale flies or newcomers, then fusion
-    ("population.py", "_select_sharing_kernel"),  # neighbour counts, sharing, selection
-    ("operators.py", "immigrants_and_children_into"),
+    # one compiled call a generation: scoring, selection with sharing, newcomers, scouts
+    ("generation.py", "generation_kernel"),
+    ("fitness.py", "fitness_into"),  # the parallel kernel, for the stale flies of a new frame
     ("engine.py", "step"),
 ]
 
@@ -219,8 +219,8 @@ _PROFILED = [
 def _profile_figures(pair, reading, rig) -> list[dict]:
     """Per-kernel time per generation in replay's rhythm (a new pair after motion every 10
     generations, sonar on), from cProfile: tottime, and the cumulative whole step. The
-    newcomers' kernel draws and builds the sonar immigrants, the uniform ones and the
-    children. The same images every frame: caches and branch predictors fare better than on
+    stages inside the generation's one compiled call are not seen by cProfile. The same
+    images every frame: caches and branch predictors fare better than on
     a log (see the log-rhythm figure)."""
     engine = FlyEngine(EngineConfig(flies=5000), rig, np.random.default_rng(0))
     engine.set_images(pair)

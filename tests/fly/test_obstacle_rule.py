@@ -1,8 +1,10 @@
 """The obstacle rule the planner and the metrics share."""
 
 import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from flylog.fly.obstacles import ObstacleFlies, obstacle_mask, obstacle_points
+from flylog.fly.obstacles import ObstacleFlies, obstacle_mask, obstacle_points, quantile_linear
 from flylog.fly.population import Population
 
 
@@ -28,3 +30,23 @@ def test_obstacle_points_applies_the_same_rule_to_a_population():
     np.testing.assert_array_equal(got, expected)
     assert 0 < len(got) < 400
     assert obstacle_mask(pop.xyz, pop.fitness, quantile=0.3, ground_margin=0.1).sum() > len(got)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.lists(st.floats(0.0, 1e3, allow_nan=False), min_size=1, max_size=80),
+    st.sampled_from([0.0, 0.1, 0.25, 0.5, 0.75, 0.9, 0.99, 1 / 3]),
+    st.integers(0, 3),
+)
+def test_quantile_is_numpys_bit_for_bit(values, q, rounding):
+    # rounded values: many ties
+    a = np.round(np.array(values), rounding) if rounding < 3 else np.array(values)
+    assert quantile_linear(a, q) == float(np.quantile(a, q))
+
+
+def test_quantile_of_a_populations_fitness_is_numpys():
+    rng = np.random.default_rng(9)
+    for n in (1, 2, 4999, 5000):
+        fitness = rng.lognormal(-3.0, 1.0, n)
+        for q in (0.5, 0.3, 0.95):
+            assert quantile_linear(fitness, q) == float(np.quantile(fitness, q))
