@@ -40,8 +40,9 @@ VISIBLE_PIXELS = 400  # an obstacle has entered the view when this many left pix
 _MEMORY_CHILD = """
 import resource, sys
 from pathlib import Path
-from flylog.cli.main import keep_large_blocks
+from flylog.cli.main import hand_the_gil_back_sooner, keep_large_blocks
 keep_large_blocks()  # as the CLI does
+hand_the_gil_back_sooner()
 from flylog.replay.config import ReplayConfig
 from flylog.replay.run import replay
 replay(Path(sys.argv[1]), Path(sys.argv[2]), ReplayConfig(generations_per_frame=10))
@@ -70,6 +71,10 @@ def _peak_rss_mb(log: Path, out: Path) -> float:
 
 
 def _speed(out_dir: Path) -> list[dict]:
+    from flylog.cli.main import hand_the_gil_back_sooner, keep_large_blocks
+
+    keep_large_blocks()  # the process as `flylog replay` sets it up
+    hand_the_gil_back_sooner()
     log = reference_log(out_dir)
     replay(_log(out_dir, "corridor", 1.0), out_dir / "bench_replay_warm.mcap", REFERENCE)
     summary = replay(log, out_dir / "bench_replay_run.mcap", REFERENCE)
