@@ -181,8 +181,12 @@ def _describe_planner(planner: PlannerConfig, overrides: Mapping[str, object]) -
         f"rad/s; forward speed scaled down within {planner.obstacle_slowdown:g} m of "
         f"clearance (not below {planner.min_speed_fraction:g} of the maximum) and within "
         f"{planner.goal_slowdown:g} m of the goal; turns in place beyond a heading error of "
-        f"{planner.turn_in_place_deg:g}°; remembered obstacle cells within "
-        f"{planner.clear_min_range:g} m are never cleared as seen free; each tick relaxes "
+        f"{planner.turn_in_place_deg:g}°; sonar echoes nearer than {planner.sonar_range:g} m "
+        "mark their arcs as obstacles at once"
+        + ("" if planner.sonar_range > 0 else " (off)")
+        + f"; remembered obstacle cells within {planner.clear_min_range:g} m are never "
+        "cleared as seen free; the obstacle-free field is relaxed before the first tick "
+        f"(at most {planner.warm_start_sweeps} sweeps), then each tick relaxes "
         f"until a sweep changes U by at most {planner.relax_tolerance:g} (at most "
         f"{planner.max_sweeps_per_tick} sweeps); grid {planner.extent:g} m a side, centred "
         "between start and goal" + (f" (overridden here: {changed})" if changed else "")

@@ -125,6 +125,10 @@ class FlyPipeline:
         # centred between start and goal, so both fit whenever they are extent apart at most
         centre = ((start.x + goal[0]) / 2.0, (start.y + goal[1]) / 2.0)
         self.planner = HarmonicPlanner.centred_on(config.planner, centre, goal)
+        if config.planner.warm_start_sweeps:
+            self.planner.relax_until(
+                config.planner.relax_tolerance, config.planner.warm_start_sweeps, chunk=100
+            )
         self._write = write
         self._write_tf = write_tf
         self._on_row = on_row

@@ -104,7 +104,7 @@ def test_command_turns_the_robot_towards_minus_gradient():
     left = p.command(Pose2D(0.0, 0.0, math.pi / 2), 0.1)  # goal on the right: turn right
     assert left.angular == pytest.approx(-SMALL.max_angular_speed)
     assert left.linear == 0.0  # beyond turn_in_place_deg: turns in place
-    right = p.command(Pose2D(0.0, 0.0, -0.3), 0.2)  # goal a little to the left
+    right = p.command(Pose2D(0.0, 0.0, -0.15), 0.2)  # goal a little to the left
     assert right.angular > 0.0 and right.linear > 0.8 * SMALL.max_linear_speed
 
 
