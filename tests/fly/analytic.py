@@ -13,7 +13,7 @@ import numpy as np
 
 from flylog.geometry import Pose2D, StereoRig
 from flylog.geometry.stereo import OPTICAL_TO_BASE
-from flylog.sensors import SonarReading, StereoPair
+from flylog.sensors import SonarConfig, SonarReading, StereoPair
 
 Box = tuple[tuple[float, float, float], tuple[float, float, float]]  # (lo, hi) in world
 
@@ -111,6 +111,15 @@ def sonar_reading(
         if t <= max_range:
             ranges[k] = t
     return SonarReading(0, ranges, np.asarray(mounts, float), cone, max_range)
+
+
+def default_sonar_reading(scene: Scene, pose: Pose2D | None = None) -> SonarReading:
+    """:func:`sonar_reading` of the default sonar ring (SonarConfig()) at ``pose``."""
+    sonars = SonarConfig()
+    return sonar_reading(
+        scene, pose or Pose2D(), sonars.mounts(), cone=math.radians(sonars.cone_deg),
+        max_range=sonars.max_range, height=sonars.mount_height,
+    )  # fmt: skip
 
 
 def true_depth_at(depth: np.ndarray, rig: StereoRig, xyz: np.ndarray) -> np.ndarray:

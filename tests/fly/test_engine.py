@@ -18,8 +18,8 @@ from flylog.fly.fitness import INVALID_FITNESS
 from flylog.fly.fusion import sonar_fused
 from flylog.fly.population import fitness_summary
 from flylog.geometry import Pose2D, StereoRig, relative
-from flylog.sensors import SonarConfig, StereoPair
-from tests.fly.analytic import on_surface_share, render, room, sonar_reading
+from flylog.sensors import StereoPair
+from tests.fly.analytic import default_sonar_reading, on_surface_share, render, room
 
 SMALL = StereoRig(width=320, height=240, focal_px=250.0)
 PANEL = ((2.0, -0.2, 0.0), (2.1, 0.6, 0.9))
@@ -39,12 +39,7 @@ def sonar_scene():
     )
     scene = room(POST, *far)
     pair, _ = render(scene, SMALL)
-    sonars = SonarConfig()
-    reading = sonar_reading(
-        scene, Pose2D(), sonars.mounts(), cone=math.radians(sonars.cone_deg),
-        max_range=sonars.max_range, height=sonars.mount_height,
-    )  # fmt: skip
-    return pair, reading
+    return pair, default_sonar_reading(scene)
 
 
 def run(config, frame, *, seed=0, generations=5, sonar=None):

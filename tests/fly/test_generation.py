@@ -1,7 +1,6 @@
 """The compiled engine's one call per generation (flylog.fly.generation)."""
 
 import dataclasses
-import math
 
 import numpy as np
 import pytest
@@ -11,8 +10,7 @@ from flylog.fly import Backend, EngineConfig, FlyEngine
 from flylog.fly.fitness import rig_constants
 from flylog.fly.generation import rows_order_into, rows_order_numpy
 from flylog.geometry import Pose2D, StereoRig
-from flylog.sensors import SonarConfig
-from tests.fly.analytic import render, room, sonar_reading
+from tests.fly.analytic import default_sonar_reading, render, room
 
 SMALL = StereoRig(width=320, height=240, focal_px=250.0)
 
@@ -47,12 +45,7 @@ def scene():
     panel = ((2.0, -0.2, 0.0), (2.1, 0.6, 0.9))
     world = room(post, panel)
     pair, _ = render(world, SMALL)
-    sonars = SonarConfig()
-    reading = sonar_reading(
-        world, Pose2D(), sonars.mounts(), cone=math.radians(sonars.cone_deg),
-        max_range=sonars.max_range, height=sonars.mount_height,
-    )  # fmt: skip
-    return pair, reading
+    return pair, default_sonar_reading(world)
 
 
 def _replayed(config, scene, seed=5):
