@@ -125,10 +125,6 @@ class FlyPipeline:
         # centred between start and goal, so both fit whenever they are extent apart at most
         centre = ((start.x + goal[0]) / 2.0, (start.y + goal[1]) / 2.0)
         self.planner = HarmonicPlanner.centred_on(config.planner, centre, goal)
-        if config.planner.warm_start_sweeps:
-            self.planner.relax_until(
-                config.planner.relax_tolerance, config.planner.warm_start_sweeps, chunk=100
-            )
         self._write = write
         self._write_tf = write_tf
         self._on_row = on_row
@@ -164,6 +160,14 @@ class FlyPipeline:
             else None
         )
         self._pending: deque[Future[None]] = deque()  # the worker's jobs, in the order asked for
+        if config.planner.warm_start_sweeps:
+            self._submit(self._warm_start)  # on the worker, while the engine starts
+
+    def _warm_start(self) -> _Outputs:
+        """Relax the obstacle-free field before the first tick (planner.warm_start_sweeps)."""
+        cfg = self.config.planner
+        self.planner.relax_until(cfg.relax_tolerance, cfg.warm_start_sweeps, chunk=100)
+        return _Outputs([])
 
     # --- the clock's Pipeline protocol -----------------------------------------------------
 

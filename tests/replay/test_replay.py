@@ -310,15 +310,19 @@ def test_planner_worker_writes_every_output_on_its_own_nicer_thread():
     ]
 
 
-@pytest.mark.parametrize("warm", [0, 5000])
-def test_the_pipeline_starts_from_a_relaxed_obstacle_free_field(warm):
+@pytest.mark.parametrize(("warm", "thread"), [(0, False), (5000, False), (5000, True)])
+def test_the_pipeline_starts_from_a_relaxed_obstacle_free_field(warm, thread):
     from flylog.geometry import Pose2D
     from flylog.replay.inputs import replay_inputs
     from flylog.replay.pipeline import FlyPipeline
 
     rig = replay_inputs(open_log(CORRIDOR), goal=None).rig
     config = replace_dotted(SMALL, {"planner.warm_start_sweeps": warm})
-    pipeline = FlyPipeline(config, rig, Pose2D(0.0, 0.0, 0.0), (3.0, 0.0), lambda *a: None)
+    pipeline = FlyPipeline(
+        config, rig, Pose2D(0.0, 0.0, 0.0), (3.0, 0.0), lambda *a: None, planner_thread=thread
+    )
+    pipeline.flush()  # the warm start runs on the planner's worker when there is one
+    pipeline.close()
     change = pipeline.planner.relax(1)  # what one more sweep still changes
     if warm:
         assert change <= config.planner.relax_tolerance
