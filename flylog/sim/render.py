@@ -31,10 +31,14 @@ GROUND = -1
 SKY = -2
 # Columns per parallel job (their scratch arrays are allocated once per job).
 _BLOCK = 16
-# A pixel's footprint on the ground (and tops) grows as 1/cos(incidence), capped for grazing
-# views. The incidence is taken from the image row only (the same in both cameras) so that
-# the texture's fading, and hence the colour of a surface point, is the same in both images;
-# vertical faces use the depth alone for the same reason.
+# A pixel's footprint on a surface grows as 1/cos(incidence), capped for grazing views; the
+# texture's octaves finer than the footprint fade to their mean, as a real lens and sensor
+# would average them. The incidence must be the same in both cameras, so that the fading,
+# and hence the colour of a surface point, is the same in both images: on the ground (and
+# tops) it is taken from the image row only; on a vertical face, from the horizontal
+# direction of the point seen from the cyclopean centre (midway between the cameras).
+# Without it a wall seen at a grazing angle aliases its fine octaves into noise that differs
+# between the two images, and no stereo method can match it.
 # Texture seeds: 0 ground, 1 and 2 sky (azimuth, elevation), 2 + 2k (+1 top) obstacle k.
 SKY_SEED = 1
 _MIN_INCIDENCE_COS = 0.05
@@ -89,6 +93,12 @@ def _camera_rays(rig: StereoRig, pose: Pose2D, side: str) -> tuple[float, float,
     return ox, oy, np.stack([c - s * lateral, s + c * lateral], axis=1)
 
 
+def _cyclopean_centre(rig: StereoRig, pose: Pose2D) -> np.ndarray:
+    """World (x, y) of the point midway between the two optical centres."""
+    mx, _, _ = rig.camera_position("left")
+    return np.array([pose.x + math.cos(pose.theta) * mx, pose.y + math.sin(pose.theta) * mx])
+
+
 def sky_pattern(rig: StereoRig, dirs: np.ndarray, feature: float) -> tuple[np.ndarray, np.ndarray]:
     """The sky's 1-D patterns: (cams, W) along the azimuth of each column's world direction
     ``dirs`` (cams, W, 2), and (H,) along the elevation of each row; in [0, 1). Rectified
@@ -114,6 +124,7 @@ class Renderer:
         rig, a, fp = self.rig, self._arrays, self._arrays.fp
         origins = np.zeros((len(sides), 2))
         dirs = np.zeros((len(sides), rig.width, 2))
+        centre = _cyclopean_centre(rig, pose)
         for i, side in enumerate(sides):
             ox, oy, d = _camera_rays(rig, pose, side)
             origins[i] = ox, oy
@@ -130,7 +141,7 @@ class Renderer:
         # does fewer of them instead of holding up the frame.
         with numba.parallel_chunksize(1):
             _render_kernel(
-                origins, dirs, rig.mount_height, rig.focal_px, rig.cy, rig.height,
+                origins, centre, dirs, rig.mount_height, rig.focal_px, rig.cy, rig.height,
                 fp.kind, fp.cx, fp.cy, fp.cos, fp.sin, fp.hx, fp.hy, fp.height,
                 fp.color, fp.feature_size, fp.contrast,
                 a.ground_color, a.ground_feature, a.ground_contrast, a.light, a.ambient, a.sky,
@@ -152,7 +163,7 @@ class Renderer:
 # No nnan/ninf fast-math: depth uses inf for the sky.
 @numba.njit(cache=True, parallel=True, fastmath={"nsz", "arcp", "contract", "afn"})
 def _render_kernel(
-    origins, dirs, hc, f, cy, height,
+    origins, centre, dirs, hc, f, cy, height,
     kind, ocx, ocy, ocos, osin, ohx, ohy, oh, ocolor, ofeat, ocontrast,
     gcolor, gfeat, gcontrast, light, ambient, sky, sky_cols, sky_rows,
     want_color, rgb, depth, ids,
@@ -181,7 +192,7 @@ def _render_kernel(
         r_q = np.empty((3, height))
         for u in range(block * _BLOCK, min(block * _BLOCK + _BLOCK, width)):
             _render_column(
-                cam, u, origins, dirs, hc, f, cy, height,
+                cam, u, origins, centre, dirs, hc, f, cy, height,
                 kind, ocx, ocy, ocos, osin, ohx, ohy, oh, ocolor, ofeat, ocontrast,
                 gcolor, gfeat, gcontrast, light, ambient, sky, sky_cols, sky_rows,
                 want_color, rgb, depth, ids,
@@ -192,7 +203,7 @@ def _render_kernel(
 
 @numba.njit(cache=True, fastmath={"nsz", "arcp", "contract", "afn"})
 def _render_column(
-    cam, u, origins, dirs, hc, f, cy, height,
+    cam, u, origins, centre, dirs, hc, f, cy, height,
     kind, ocx, ocy, ocos, osin, ohx, ohy, oh, ocolor, ofeat, ocontrast,
     gcolor, gfeat, gcontrast, light, ambient, sky, sky_cols, sky_rows,
     want_color, rgb, depth, ids,
@@ -262,9 +273,12 @@ def _render_column(
         else:
             seed = 2 + 2 * hit + (1 if top else 0)
             feat = ofeat[hit]
-        incidence = 1.0
         if hit == -1 or top:
             incidence = max(slope / math.sqrt(1.0 + slope * slope), _MIN_INCIDENCE_COS)
+        else:
+            ex, ey = px - centre[0], py - centre[1]
+            facing = abs(nxs[hit] * ex + nys[hit] * ey) / math.sqrt(ex * ex + ey * ey)
+            incidence = max(facing, _MIN_INCIDENCE_COS)
         r_s[v], r_t[v], r_seed[v], r_feat[v], r_fp[v] = s, t, seed, feat, best / f / incidence
     if not want_color:
         return
@@ -307,6 +321,7 @@ def render_reference(scene: Scene, rig: StereoRig, pose: Pose2D) -> RenderedPair
     with np.errstate(divide="ignore"):
         t_ground = np.where(down, hc / np.where(down, slope, 1.0), np.inf)
     images, depth0, ids0 = [], None, None
+    centre = _cyclopean_centre(rig, pose)
     for side in ("left", "right"):
         ox, oy, dirs = _camera_rays(rig, pose, side)
         sky_cols, sky_rows = sky_pattern(rig, dirs[None], a.sky[3])
@@ -335,8 +350,9 @@ def render_reference(scene: Scene, rig: StereoRig, pose: Pose2D) -> RenderedPair
             hit = np.where(np.isinf(best), -2, hit)
             top = pick > n
             depth[:, u], ids[:, u] = best, hit
-            img[:, u] = _shade_column_numpy(a, hc, rig.focal_px, ox, oy, dx, dy, slope, best, hit,
-                                            top, nxs, nys, sky_cols[0, u], sky_rows)  # fmt: skip
+            img[:, u] = _shade_column_numpy(a, hc, rig.focal_px, ox, oy, centre, dx, dy, slope,
+                                            best, hit, top, nxs, nys, sky_cols[0, u],
+                                            sky_rows)  # fmt: skip
         images.append(img)
         if depth0 is None:
             depth0, ids0 = depth, ids
@@ -345,7 +361,7 @@ def render_reference(scene: Scene, rig: StereoRig, pose: Pose2D) -> RenderedPair
 
 
 def _shade_column_numpy(
-    a, hc, f, ox, oy, dx, dy, slope, best, hit, top, nxs, nys, sky_col, sky_rows
+    a, hc, f, ox, oy, centre, dx, dy, slope, best, hit, top, nxs, nys, sky_col, sky_rows
 ) -> np.ndarray:
     fp = a.fp
     k = np.maximum(hit, 0)
@@ -369,7 +385,10 @@ def _shade_column_numpy(
         np.where(obstacle, fp.contrast[k], a.ground_contrast) if len(fp) else a.ground_contrast
     )
     grazing = np.maximum(slope / np.sqrt(1.0 + slope * slope), _MIN_INCIDENCE_COS)
-    incidence = np.where(nz > 0.0, grazing, 1.0)
+    ex, ey = px - centre[0], py - centre[1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        facing = np.abs(nx * ex + ny * ey) / np.sqrt(ex * ex + ey * ey)
+    incidence = np.where(nz > 0.0, grazing, np.maximum(np.nan_to_num(facing), _MIN_INCIDENCE_COS))
     footprint = np.where(sky, 1.0, finite / f / incidence)
     tex = texture_value_numpy(s, t, seed, feat, footprint)
     lambert = np.maximum(nx * a.light[0] + ny * a.light[1] + nz * a.light[2], 0.0)

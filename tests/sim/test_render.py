@@ -169,3 +169,35 @@ def test_render_depth_matches_render():
     assert np.array_equal(depth, full.depth) and np.array_equal(ids, full.ids)
     assert depth.dtype == np.float32 and ids.dtype == np.int16
     assert full.left.shape == (SMALL.height, SMALL.width, 3) and full.left.dtype == np.uint8
+
+
+@pytest.mark.parametrize("impl", IMPLS)
+def test_a_wall_seen_at_a_grazing_angle_looks_the_same_to_both_cameras(impl):
+    # A wall beside the robot, running along its view: far along it, a pixel covers many
+    # times the texture's finest octave. Point-sampling those octaves would alias them into
+    # noise that differs between the two cameras; faded by the pixel's footprint on the face,
+    # a surface point has the same colour in both images, and texture is left to match.
+    scene = parse_scene(
+        """
+name = "side wall"
+[[obstacles]]
+kind = "wall"
+start = [-5.0, 1.5]
+end = [60.0, 1.5]
+height = 1.2
+texture = { feature_size = 0.04, contrast = 0.6 }
+""",
+        "mem",
+    )
+    rig = StereoRig(width=160, height=120, focal_px=125.0)
+    out = render_with(impl, scene, rig, Pose2D())
+    v, u = np.nonzero((out.ids == 0) & (out.depth > 4.0))
+    assert len(v) > 500
+    z = out.depth[v, u].astype(float)
+    u_right = np.floor(u - rig.focal_px * rig.baseline / z + 0.5).astype(int)
+    left = out.left[v, u].astype(float)
+    right = out.right[v, u_right].astype(float)
+    # measured 0.35 grey levels (1.76 when the footprint ignored the incidence); texture
+    # standard deviation 14
+    assert np.abs(left - right).mean() < 0.7
+    assert left.std() > 8.0
