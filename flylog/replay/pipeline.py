@@ -121,6 +121,7 @@ class FlyPipeline:
     ) -> None:
         self.config = config
         self.rig = rig
+        self._mapping_range = config.planner.mapping_range(rig.focal_px, rig.baseline)
         self.engine = stereo_engine(config, rig)
         # centred between start and goal, so both fit whenever they are extent apart at most
         centre = ((start.x + goal[0]) / 2.0, (start.y + goal[1]) / 2.0)
@@ -292,7 +293,11 @@ class FlyPipeline:
             obstacles = pop.xyz[mask]
             in_odom = transform_points_2d(tick.published_pose, obstacles[:, :2])
             self.planner.update_obstacles(
-                in_odom, tick.published_pose, self.rig.half_fov, sonar_xy=self._echoes(tick)
+                in_odom,
+                tick.published_pose,
+                self.rig.half_fov,
+                view_range=self._mapping_range,
+                sonar_xy=self._echoes(tick),
             )
         change = self.planner.relax()
         pose, t_ns = tick.odom.pose, tick.t_ns

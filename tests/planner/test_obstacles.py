@@ -263,3 +263,18 @@ def test_sonar_echo_cells_become_obstacles_at_once_and_are_not_seen_free():
     p.update_obstacles(np.empty((0, 2)), behind, FOV, sonar_xy=echo)
     p.update_obstacles(np.empty((0, 2)), behind, FOV)
     assert p.detected_mask[cell]
+
+
+def test_flies_are_mapped_only_as_far_as_the_rig_resolves_depth():
+    # one pixel of disparity spans Z²/(f·B) of depth: 0.5 m at Z = sqrt(0.5·500·0.12)
+    cfg = PlannerConfig(view_range=6.0, max_depth_per_pixel=0.5)
+    assert cfg.mapping_range(500.0, 0.12) == pytest.approx(math.sqrt(30.0))
+    assert cfg.mapping_range(250.0, 0.12) == pytest.approx(math.sqrt(15.0))
+    assert cfg.mapping_range(5000.0, 0.12) == 6.0  # never beyond the view range
+    assert PlannerConfig(max_depth_per_pixel=0.0).mapping_range(250.0, 0.12) == 6.0
+    p = _planner()
+    reach = cfg.mapping_range(250.0, 0.12)  # 3.87 m
+    p.update_obstacles(_cluster(4.05, 0.05, 10), ROBOT, FOV, view_range=reach)
+    assert not p.detected_mask.any()
+    p.update_obstacles(_cluster(3.55, 0.05, 10), ROBOT, FOV, view_range=reach)
+    assert p.detected_mask.any()
