@@ -148,12 +148,12 @@ class PlannerConfig:
         6.0, help="default camera view range for obstacle updates", unit="m", min=0.0
     )
     max_depth_per_pixel: float = param(
-        0.5,
+        0.75,
         help="obstacle flies are mapped, and cells seen free, only as far as one pixel of "
-        "disparity spans at most this much depth (Z²/(focal·baseline)): 3.9 m at 320×240, "
-        "5.5 m at 640×480 with the default rig. Farther away a fly's depth is too coarse to "
-        "place a cell, and blobs stretched along the view closed the corridor on the far "
-        "side (0 = map up to view_range)",
+        "disparity spans at most this much depth (Z²/(focal·baseline)): 4.7 m at 320×240 "
+        "with the default rig; at 640×480 (6.7 m) view_range bounds it. Farther away a "
+        "fly's depth is too coarse to place a cell: boxes became blobs stretched along the "
+        "view that closed the corridor (0 = map up to view_range)",
         unit="m",
         min=0.0,
     )
