@@ -89,6 +89,8 @@ def clock_config(config: ReplayConfig, frame_period_ns: int) -> ClockConfig:
             config.engine.max_evaluations
             + config.obstacles.most_distinct_evaluations(config.engine.flies)
         ),
+        # no stale fly and no distinctness charged (that comes with the first after a tick)
+        max_later_generation_cost_ns=config.generation_cost_ns(config.engine.max_later_evaluations),
     )
 
 
