@@ -81,3 +81,23 @@ def test_progress_bar_off_a_terminal_draws_nothing_and_skips_rich_progress():
         "assert out.getvalue() == ''"
     )
     assert _imported_by(statement, ("rich.progress", "flylog.cli.progress")) == []
+
+
+def test_replay_leaves_its_imports_out_of_garbage_collection(tmp_path):
+    """`flylog replay` freezes what its imports made (gc.freeze): full collections no longer
+    walk numba's registries. In a fresh interpreter, as the command runs."""
+    code = (
+        "import gc, sys\n"
+        "from flylog.cli.main import cli\n"
+        "try:\n"
+        "    cli(['replay', 'missing.mcap', '-o', sys.argv[1]])\n"
+        "except SystemExit:\n"
+        "    pass\n"
+        "print(gc.get_freeze_count())"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code, str(tmp_path / "run.mcap")],
+        capture_output=True, text=True, check=True,
+    )  # fmt: skip
+    assert int(out.stdout.split()[-1]) > 50_000
+    assert "no such file" in out.stderr
