@@ -2,6 +2,7 @@
 
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
@@ -101,3 +102,20 @@ def test_replay_leaves_its_imports_out_of_garbage_collection(tmp_path):
     )  # fmt: skip
     assert int(out.stdout.split()[-1]) > 50_000
     assert "no such file" in out.stderr
+
+
+def test_the_installed_command_flushes_its_output_and_keeps_its_exit_codes(tmp_path):
+    """`flylog` ends without the interpreter's teardown (cli.main.exit_at_once): what it
+    printed still arrives through a pipe, and the exit codes are click's and the
+    commands' own."""
+    flylog = Path(sys.executable).with_name("flylog")
+
+    def run(*args: str) -> subprocess.CompletedProcess:
+        return subprocess.run([flylog, *args], capture_output=True, text=True, check=False)
+
+    version = run("--version")
+    assert version.returncode == 0 and "version" in version.stdout
+    missing = run("replay", str(tmp_path / "missing.mcap"), "-o", str(tmp_path / "run.mcap"))
+    assert missing.returncode == 2 and "no such file" in missing.stderr
+    bad = run("replay", "--no-such-option")
+    assert bad.returncode == 2 and "No such option" in bad.stderr
