@@ -247,8 +247,6 @@ class FlyEngine:
             sonar_immigrants=n_sonar,
         )
 
-    # --- internals --------------------------------------------------------------------------
-
     def steps(self, count: int) -> list[GenerationStats]:
         """``count`` generations on the newest data, as ``count`` calls of :meth:`step` make
         them (same population, same statistics), in one compiled call with the numba
@@ -260,6 +258,8 @@ class FlyEngine:
         if self._left is None or not self._numba:
             return [self.step() for _ in range(count)]
         return self._steps_numba(count)
+
+    # --- internals --------------------------------------------------------------------------
 
     def _step_numba(self) -> GenerationStats:
         return self._steps_numba(1)[0]
