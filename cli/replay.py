@@ -7,6 +7,7 @@ from pathlib import Path
 import click
 
 from flylog.cli.common import progress_bar, reports_errors, stdout
+from flylog.cli.main import freeze_imported_objects
 
 
 def _goal(ctx: click.Context, param: click.Parameter, value: str | None):
@@ -120,6 +121,8 @@ def replay(
     from flylog.config import replace_dotted
     from flylog.replay.config import ReplayConfig, Stereo, load_replay_config
     from flylog.replay.run import replay as run_replay
+
+    freeze_imported_objects()
 
     config = load_replay_config(config_file) if config_file else ReplayConfig()
     overrides = {

@@ -2,6 +2,7 @@
 
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
@@ -81,3 +82,42 @@ def test_progress_bar_off_a_terminal_draws_nothing_and_skips_rich_progress():
         "assert out.getvalue() == ''"
     )
     assert _imported_by(statement, ("rich.progress", "flylog.cli.progress")) == []
+
+
+def test_replay_leaves_its_imports_out_of_garbage_collection(tmp_path):
+    """`flylog replay` freezes what its imports made (gc.freeze): full collections no longer
+    walk numba's registries. In a fresh interpreter, as the command runs."""
+    code = (
+        "import gc, sys\n"
+        "import flylog.cli.main as entry\n"
+        "defaults = gc.get_threshold()\n"
+        "entry.exit_at_once = lambda code: None  # to print what follows\n"
+        "sys.argv = ['flylog', 'replay', 'missing.mcap', '-o', sys.argv[1]]\n"
+        "entry.main()\n"
+        "print(gc.get_freeze_count(), gc.get_threshold() == defaults)"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code, str(tmp_path / "run.mcap")],
+        capture_output=True, text=True, check=True,
+    )  # fmt: skip
+    frozen, defaults = out.stdout.split()[-2:]
+    assert int(frozen) > 50_000
+    assert defaults == "True"  # collections as often as Python's defaults once imported
+    assert "no such file" in out.stderr
+
+
+def test_the_installed_command_flushes_its_output_and_keeps_its_exit_codes(tmp_path):
+    """`flylog` ends without the interpreter's teardown (cli.main.exit_at_once): what it
+    printed still arrives through a pipe, and the exit codes are click's and the
+    commands' own."""
+    flylog = Path(sys.executable).with_name("flylog")
+
+    def run(*args: str) -> subprocess.CompletedProcess:
+        return subprocess.run([flylog, *args], capture_output=True, text=True, check=False)
+
+    version = run("--version")
+    assert version.returncode == 0 and "version" in version.stdout
+    missing = run("replay", str(tmp_path / "missing.mcap"), "-o", str(tmp_path / "run.mcap"))
+    assert missing.returncode == 2 and "no such file" in missing.stderr
+    bad = run("replay", "--no-such-option")
+    assert bad.returncode == 2 and "No such option" in bad.stderr

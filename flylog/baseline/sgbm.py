@@ -189,6 +189,10 @@ class SgbmEngine:
 
     # --- one frame --------------------------------------------------------------------------
 
+    def steps(self, count: int) -> list[GenerationStats]:
+        """``count`` calls of :meth:`step` (each matches the same pair again)."""
+        return [self.step() for _ in range(count)]
+
     def step(self) -> GenerationStats:
         """Match the newest pair and replace the cloud with its points. ``evaluations`` is 0:
         SGBM makes no fitness evaluations (replay charges it ``seconds_per_frame`` instead)."""

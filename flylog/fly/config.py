@@ -139,8 +139,15 @@ class EngineConfig:
     def max_evaluations(self) -> int:
         """The most fitness evaluations one generation can make: every fly (new images make
         all stale), the newcomers, and K candidates for each immigrant that may scout."""
+        return self.flies + self.max_later_evaluations
+
+    @property
+    def max_later_evaluations(self) -> int:
+        """The most fitness evaluations a generation that follows another on the same
+        images can make: no fly is stale then, only the newcomers and the scouts'
+        candidates are scored."""
         scouts = self.immigrants * self.scout_candidates if self.scouting else 0
-        return self.flies + (self.flies - self.survivors) + scouts
+        return (self.flies - self.survivors) + scouts
 
     @property
     def immigrants(self) -> int:

@@ -34,7 +34,7 @@ from flylog.fly.fusion import (
     sonar_fused,
     sonar_immigrants,
 )
-from flylog.fly.generation import generation_kernel
+from flylog.fly.generation import generations_kernel
 from flylog.fly.neighbours import NeighbourCounter, neighbour_counts_numpy
 from flylog.fly.operators import (
     newcomer_constants,
@@ -247,10 +247,25 @@ class FlyEngine:
             sonar_immigrants=n_sonar,
         )
 
+    def steps(self, count: int) -> list[GenerationStats]:
+        """``count`` generations on the newest data, as ``count`` calls of :meth:`step` make
+        them (same population, same statistics), in one compiled call with the numba
+        backend (:func:`~flylog.fly.generation.generations_kernel`). For a caller that
+        gives the engine nothing and reads nothing between them (replay, between two
+        ticks)."""
+        if count < 1:
+            return []
+        if self._left is None or not self._numba:
+            return [self.step() for _ in range(count)]
+        return self._steps_numba(count)
+
     # --- internals --------------------------------------------------------------------------
 
     def _step_numba(self) -> GenerationStats:
-        """:meth:`step` in one compiled call (:func:`~flylog.fly.generation.generation_kernel`:
+        return self._steps_numba(1)[0]
+
+    def _steps_numba(self, count: int) -> list[GenerationStats]:
+        """:meth:`steps` in one compiled call (:func:`~flylog.fly.generation.generations_kernel`:
         the same kernels, in the same order, as the numpy path's steps), after the parallel
         fitness kernel when enough flies are stale to make it pay."""
         cfg, pop, nxt = self.config, self._pop, self._spare
@@ -276,9 +291,10 @@ class FlyEngine:
                 evaluations = 0
         n_immigrants = self._n_immigrants
         n_sonar = 0 if self._sonar is None else self._sonar_share
-        made, k, n_children, n_sonar = generation_kernel(
-            self._rng, left, right, channels, self._rig_constants, cfg.window, self._guard,
-            self._gy_weight, self._stamp_ns,
+        made = np.empty((count, 4), dtype=np.int64)
+        generations_kernel(
+            count, made, self._rng, left, right, channels, self._rig_constants, cfg.window,
+            self._guard, self._gy_weight, self._stamp_ns,
             pop.xyz, pop.fitness, pop.vision, pop.stale, pop.stamp_ns, pop.age,
             nxt.xyz, nxt.fitness, nxt.vision, nxt.stale, nxt.stamp_ns, nxt.age,
             self._stale_index, self._all, fuse_all, sonars, self._cos_half_cone,
@@ -288,17 +304,23 @@ class FlyEngine:
             self._arc_k, _SONAR_TRIES, n_sonar, n_immigrants,
             *self._scouts.kernel_args(n_immigrants), self._newcomers, self._row_scratch,
         )  # fmt: skip
-        self._pop, self._spare = nxt, pop
-        self._generation += 1
-        return GenerationStats(
-            generation=self._generation,
-            evaluations=evaluations + made,
-            image_stamp_ns=self._stamp_ns,
-            survivors=k,
-            offspring=n_children,
-            immigrants=n_immigrants,
-            sonar_immigrants=n_sonar,
-        )
+        if count % 2:
+            self._pop, self._spare = nxt, pop
+        made[0, 0] += evaluations
+        first = self._generation + 1
+        self._generation += count
+        return [
+            GenerationStats(
+                generation=first + g,
+                evaluations=int(e),
+                image_stamp_ns=self._stamp_ns,
+                survivors=int(kept),
+                offspring=int(children),
+                immigrants=n_immigrants,
+                sonar_immigrants=int(found),
+            )
+            for g, (e, kept, children, found) in enumerate(made.tolist())
+        ]
 
     def _fuse(self, index: np.ndarray, sonars: np.ndarray) -> None:
         """The fused fitness of the flies ``index`` from their vision fitness."""

@@ -83,6 +83,58 @@ def generation_kernel(rng, lrows, rrows, channels, k, window, guard, gy_weight, 
     return evaluations, kept, n_children, found
 
 
+@numba.njit(cache=True, nogil=True)
+def generations_kernel(count, made, rng, lrows, rrows, channels, k, window, guard, gy_weight,
+                       stamp, xyz, fitness, vision, stale, stamp_ns, age,
+                       oxyz, ofit, ovis, ostale, ostamp, oage,
+                       stale_index, everyone, fuse_all, sonars, cos_half_cone, tolerance, bonus,
+                       survivors, sharing, coefficient, work, radius, grid, ints, uv, counts,
+                       rate2, rate3, sigma_px, sigma_d, newcomer_k, arcs, half_cone, arc_k,
+                       tries, n_sonar, n_immigrants, scout_fraction, c0, c1, in_right,
+                       n_depths, scout_k, candidates, candidate_index, candidate_fitness,
+                       newcomers, row_scratch):  # fmt: skip  # pragma: no cover - compiled
+    """``count`` generations of :func:`generation_kernel` on the same inputs, one call: the
+    first from ``xyz``… into ``oxyz``…, the next back, and so on (after an odd ``count`` the
+    newest population is in ``oxyz``…). ``fuse_all`` applies to the first only (the next
+    ones see the reading the first fused with). Row g of ``made`` (count, 4) receives
+    generation g's (evaluations, survivors, children, sonar immigrants).
+
+    Why: replay runs 10 generations a frame and most of them with no tick or record between
+    them; called one by one, each return waited for the GIL that the planner's worker and
+    the reading thread hold for their Python (~0.5 s of the 60 s reference replay's ~4.5 s
+    on a quiet 2-core machine), and each call cost its dispatch and Python glue."""
+    for g in range(count):
+        fuse = fuse_all and g == 0
+        if g % 2 == 0:
+            e, kept, children, found = generation_kernel(
+                rng, lrows, rrows, channels, k, window, guard, gy_weight, stamp,
+                xyz, fitness, vision, stale, stamp_ns, age,
+                oxyz, ofit, ovis, ostale, ostamp, oage,
+                stale_index, everyone, fuse, sonars, cos_half_cone, tolerance, bonus,
+                survivors, sharing, coefficient, work, radius, grid, ints, uv, counts,
+                rate2, rate3, sigma_px, sigma_d, newcomer_k, arcs, half_cone, arc_k, tries,
+                n_sonar, n_immigrants, scout_fraction, c0, c1, in_right, n_depths,
+                scout_k, candidates, candidate_index, candidate_fitness,
+                newcomers, row_scratch,
+            )  # fmt: skip
+        else:
+            e, kept, children, found = generation_kernel(
+                rng, lrows, rrows, channels, k, window, guard, gy_weight, stamp,
+                oxyz, ofit, ovis, ostale, ostamp, oage,
+                xyz, fitness, vision, stale, stamp_ns, age,
+                stale_index, everyone, fuse, sonars, cos_half_cone, tolerance, bonus,
+                survivors, sharing, coefficient, work, radius, grid, ints, uv, counts,
+                rate2, rate3, sigma_px, sigma_d, newcomer_k, arcs, half_cone, arc_k, tries,
+                n_sonar, n_immigrants, scout_fraction, c0, c1, in_right, n_depths,
+                scout_k, candidates, candidate_index, candidate_fitness,
+                newcomers, row_scratch,
+            )  # fmt: skip
+        made[g, 0] = e
+        made[g, 1] = kept
+        made[g, 2] = children
+        made[g, 3] = found
+
+
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def rows_order_into(xyz, index, k, height, scratch):  # pragma: no cover - compiled
     """The flies ``index`` of ``xyz`` in the order of the image row their left projection

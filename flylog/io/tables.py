@@ -1,32 +1,50 @@
-"""Parquet tables, written atomically and streamed in row groups (bounded memory)."""
+"""Parquet tables, written atomically and streamed in row groups (bounded memory).
+
+pyarrow is imported when a table is first needed (a schema built, a row appended), not
+with this module: replay's start (where nothing else runs) need not wait for it; its
+planner worker imports it at the first row, beside the engine's work (~50 ms).
+"""
 
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from types import TracebackType
-from typing import Any, NamedTuple
-
-import pyarrow as pa
-import pyarrow.parquet as pq
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 from flylog.io.atomic import publish, temporary_beside
 
+if TYPE_CHECKING:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
 
 class Column(NamedTuple):
-    """A documented column: its unit and description go into the Parquet field metadata."""
+    """A documented column: its unit and description go into the Parquet field metadata.
+    ``type`` is a pyarrow type or its name (``"float64"``, ``"int64"``, ``"string"``...:
+    ``pyarrow.type_for_alias``)."""
 
     name: str
-    type: pa.DataType
+    type: Any
     unit: str
     description: str
 
 
+def _arrow_type(type_: Any) -> pa.DataType:
+    import pyarrow as pa
+
+    return pa.type_for_alias(type_) if isinstance(type_, str) else type_
+
+
 def schema(columns: Iterable[Column]) -> pa.Schema:
+    import pyarrow as pa
+
     return pa.schema(
         [
-            pa.field(c.name, c.type, metadata={"description": c.description, "unit": c.unit})
+            pa.field(
+                c.name, _arrow_type(c.type), metadata={"description": c.description, "unit": c.unit}
+            )
             for c in columns
         ]
     )
@@ -35,7 +53,9 @@ def schema(columns: Iterable[Column]) -> pa.Schema:
 def schema_markdown(columns: Iterable[Column]) -> str:
     """A Markdown table of the columns (for the README)."""
     lines = ["| column | type | unit | meaning |", "|---|---|---|---|"]
-    lines += [f"| `{c.name}` | {c.type} | {c.unit} | {c.description} |" for c in columns]
+    lines += [
+        f"| `{c.name}` | {_arrow_type(c.type)} | {c.unit} | {c.description} |" for c in columns
+    ]
     return "\n".join(lines)
 
 
@@ -44,33 +64,56 @@ class TableWriter:
 
     Rows are buffered and flushed every ``rows_per_group`` rows; the file appears at
     ``path`` only when the block ends without an exception (written to a temporary file
-    in the same directory, then renamed).
+    in the same directory, then renamed). ``schema`` is a pyarrow schema or the columns to
+    make one of (:func:`schema`), with pyarrow, when the first row comes.
     """
 
     def __init__(
         self,
         path: str | os.PathLike[str],
-        schema: pa.Schema,
+        schema: pa.Schema | Sequence[Column],
         *,
         rows_per_group: int = 8192,
         metadata: dict[str, str] | None = None,
     ) -> None:
         self.path = Path(path)
-        self.schema = schema.with_metadata(metadata) if metadata else schema
+        self._schema: pa.Schema | tuple[Column, ...]
+        if isinstance(schema, Sequence):  # columns (a pyarrow schema is no Sequence)
+            self._schema = tuple(schema)
+            names = [c.name for c in self._schema]
+        else:
+            self._schema, names = schema, schema.names
+        self._metadata = metadata
         self._rows_per_group = rows_per_group
-        self._columns: dict[str, list[Any]] = {name: [] for name in schema.names}
+        self._columns: dict[str, list[Any]] = {name: [] for name in names}
         self._buffered = 0
         self._writer: pq.ParquetWriter | None = None
         self._tmp: Path | None = None
         self.rows = 0
 
+    @property
+    def schema(self) -> pa.Schema:
+        out = schema(self._schema) if isinstance(self._schema, tuple) else self._schema
+        return out.with_metadata(self._metadata) if self._metadata else out
+
     def __enter__(self) -> TableWriter:
         fd, self._tmp = temporary_beside(self.path)
         os.close(fd)
-        self._writer = pq.ParquetWriter(self._tmp, self.schema, compression="zstd")
         return self
 
+    def _open(self) -> pq.ParquetWriter:
+        if self._writer is None:
+            import pyarrow.parquet as pq
+
+            assert self._tmp is not None, "use TableWriter inside a `with` block"
+            self._schema = self.schema  # built once
+            self._metadata = None
+            self._writer = pq.ParquetWriter(self._tmp, self._schema, compression="zstd")
+        return self._writer
+
     def append(self, row: dict[str, Any]) -> None:
+        if self._writer is None:
+            self._open()
         for name, column in self._columns.items():
             column.append(row[name])
         self._buffered += 1
@@ -81,8 +124,9 @@ class TableWriter:
     def _flush(self) -> None:
         if self._buffered == 0:
             return
-        assert self._writer is not None
-        self._writer.write_table(pa.table(self._columns, schema=self.schema))
+        import pyarrow as pa
+
+        self._open().write_table(pa.table(self._columns, schema=self.schema))
         for column in self._columns.values():
             column.clear()
         self._buffered = 0
@@ -93,12 +137,13 @@ class TableWriter:
         exc: BaseException | None,
         tb: TracebackType | None,
     ) -> None:
-        assert self._writer is not None and self._tmp is not None
+        assert self._tmp is not None
         try:
             if exc_type is None:
                 self._flush()
-                self._writer.close()
+                self._open().close()
                 publish(self._tmp, self.path)
         finally:
-            self._writer.close()
+            if self._writer is not None:
+                self._writer.close()
             self._tmp.unlink(missing_ok=True)

@@ -95,6 +95,7 @@ class HarmonicPlanner:
         self._seen_dense_count = np.zeros((n, n), dtype=np.int32)
         self._obstacles = np.zeros((n, n), dtype=bool)  # inflated
         self._obstacle_values = np.zeros((n, n))  # Dirichlet values on self._obstacles
+        self._inflated_from = self._remembered.copy()  # what those two were made from
         self._fixed = np.zeros((n, n), dtype=bool)
         # the relaxed state: obstacle cells hold obstacle_weight × their value, so the
         # sweep's weighted mean needs no per-neighbour weights (see obs.neighbour_factor)
@@ -168,16 +169,16 @@ class HarmonicPlanner:
         cfg = self.config
         vr = cfg.view_range if view_range is None else float(view_range)
         counts = obs.fly_counts(self.geometry, points_odom_xy)
-        dense = obs.dense_cells(
-            counts, cfg.cell_size, cfg.density_window_cells, cfg.density_threshold
-        )
         # only the cells within the view range of the robot can be seen: work on that window
         rows, cols = self._window(robot_pose, vr)
+        dense = obs.dense_cells(
+            counts, cfg.cell_size, cfg.density_window_cells, cfg.density_threshold, rows, cols
+        )
         rng, bearing = obs.polar_of_cells(self.geometry, robot_pose, rows, cols)
         in_view = obs.view_mask(rng, bearing, half_fov, vr)
         # a cell counts as detected once it has been dense in view confirm_after_views
         # updates in a row (cells outside the window start counting again)
-        dense_now = dense[rows, cols] & in_view
+        dense_now = dense & in_view
         count = np.zeros_like(self._seen_dense_count)
         count[rows, cols] = np.where(dense_now, self._seen_dense_count[rows, cols] + 1, 0)
         self._seen_dense_count = count
@@ -367,6 +368,11 @@ class HarmonicPlanner:
         return guess / guess.max()
 
     def _set_obstacles(self) -> None:
+        # most updates remember the same cells (464 of the 600 ticks of replay's 60 s
+        # reference): the inflation and the values are a function of them only
+        if np.array_equal(self._remembered, self._inflated_from):
+            return
+        self._inflated_from = self._remembered.copy()
         cfg = self.config
         distance = obs.distance_within(self._remembered, cfg.inflation_cells)
         self._obstacles = np.isfinite(distance)

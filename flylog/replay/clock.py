@@ -44,6 +44,12 @@ class Pipeline(Protocol):
         and the virtual time it costs (ns, at least 1). ``keep_published`` False: no tick
         fires before the next publish, so what was published need not outlive this step."""
 
+    def run_generations(self, count: int, keep_published: bool) -> list[tuple[int, int]]:
+        """``count`` generations as ``count`` calls of ``generation(keep_published)`` make
+        them, each one's (evaluations, cost): the clock asks for several at once only when
+        no record and no tick can come between them, so nothing can see the populations
+        between."""
+
     def publish(self, t_ns: int) -> None:
         """The population computed so far becomes what ticks see (at virtual time t_ns)."""
 
@@ -61,6 +67,10 @@ class ClockConfig:
     # told when no tick can fire before the next publish (most generations), which spares it
     # a copy of the published population at every generation.
     max_generation_cost_ns: int | None = None
+    # The most a generation can cost when it follows another with no record delivered and
+    # no tick fired between them (None: max_generation_cost_ns). The generations that no
+    # tick can fire between run in one call of the pipeline (run_generations).
+    max_later_generation_cost_ns: int | None = None
 
 
 @dataclass
@@ -128,32 +138,73 @@ class VirtualClock:
                 self._fire_ticks_until(nxt - 1)
                 stats.now_ns = nxt
                 continue
-            for i in range(runs):
+            i = 0
+            while i < runs:
+                # No record comes between a frame's generations: those that no tick can
+                # fire between run in one call (they publish after each, as the others do,
+                # but only the last can be seen).
+                batch = self._tickless_generations(runs - i)
+                if batch > 1:
+                    # SYNC: a tick after these but before the frame's end sees the population
+                    # published before them
+                    keep = cfg.mode is Mode.SYNC and self._tick_before(runs - i)
+                    bound = cfg.max_generation_cost_ns
+                    for evals, cost in self.pipeline.run_generations(batch, keep):
+                        self._charge(evals, cost, keep=keep, bound=bound)
+                        bound = self._later_bound
+                    i += batch
+                    if cfg.mode is not Mode.SYNC:
+                        self.pipeline.publish(stats.now_ns)
+                    continue
                 # SYNC publishes once the frame's generations are done, the others after each
                 keep = self._tick_before(runs - i if cfg.mode is Mode.SYNC else 1)
                 evals, cost = self.pipeline.generation(keep)
-                cost = max(1, cost)
-                if not keep and cost > (cfg.max_generation_cost_ns or 0):
-                    msg = (
-                        f"a generation cost {cost} ns of virtual time, more than the "
-                        f"{cfg.max_generation_cost_ns} ns the clock was told it can cost"
-                    )
-                    raise RuntimeError(msg)
-                # Ticks due while this generation runs see what was published before it.
-                self._fire_ticks_until(stats.now_ns + cost - 1)
-                stats.now_ns += cost
-                stats.generations += 1
-                stats.evaluations += evals
+                self._charge(evals, cost, keep=keep, bound=cfg.max_generation_cost_ns)
+                i += 1
                 if cfg.mode is not Mode.SYNC:
                     self.pipeline.publish(stats.now_ns)
             if cfg.mode is Mode.SYNC:
                 self.pipeline.publish(stats.now_ns)
+
+    def _charge(self, evals: int, cost: int, *, keep: bool, bound: int | None) -> None:
+        """Account for a generation that made ``evals`` evaluations and costs ``cost`` (at
+        most ``bound`` unless it kept what was published), and fire the ticks due while it
+        ran (they see what was published before it)."""
+        stats = self.stats
+        cost = max(1, cost)
+        if not keep and cost > (bound or 0):
+            msg = (
+                f"a generation cost {cost} ns of virtual time, more than the "
+                f"{bound} ns the clock was told it can cost"
+            )
+            raise RuntimeError(msg)
+        self._fire_ticks_until(stats.now_ns + cost - 1)
+        stats.now_ns += cost
+        stats.generations += 1
+        stats.evaluations += evals
 
     def finish(self, end_ns: int) -> ClockStats:
         """Run until ``end_ns`` (the log's end) and fire the ticks due until then."""
         self.advance_to(end_ns)
         self._fire_ticks_until(end_ns)
         return self.stats
+
+    @property
+    def _later_bound(self) -> int | None:
+        cfg = self.config
+        return cfg.max_later_generation_cost_ns or cfg.max_generation_cost_ns
+
+    def _tickless_generations(self, most: int) -> int:
+        """How many of the next ``most`` generations (with nothing delivered between them)
+        can run with no tick firing before the last has ended (0 when the generations'
+        cost is not bounded)."""
+        bound, later = self.config.max_generation_cost_ns, self._later_bound
+        if not bound or not later:
+            return 0
+        if not self._ticks:
+            return most
+        gap = self._ticks[0][0] - self.stats.now_ns
+        return 0 if gap < bound else min(most, 1 + (gap - bound) // later)
 
     def _tick_before(self, generations: int) -> bool:
         """Whether a tick may fire within the next ``generations`` generations."""

@@ -75,6 +75,8 @@ class StereoEngine(Protocol):
 
     def step(self) -> GenerationStats: ...
 
+    def steps(self, count: int) -> list[GenerationStats]: ...
+
     @property
     def population(self) -> Population: ...
 
@@ -202,6 +204,22 @@ class FlyPipeline:
         self._owed_evaluations = 0
         self._evaluations += evals
         return evals, self.config.generation_cost_ns(evals)
+
+    def run_generations(self, count: int, keep_published: bool = False) -> list[tuple[int, int]]:
+        """``count`` generations, as ``count`` calls of :meth:`generation` make them, in one
+        call of the engine (:meth:`FlyEngine.steps`)."""
+        if keep_published:
+            self._published_population()
+        elif self._published_live:
+            self._published_live, self._published_gone = False, True
+        out = []
+        for stats in self.engine.steps(count):
+            evals = stats.evaluations + self._owed_evaluations
+            self._owed_evaluations = 0
+            self._evaluations += evals
+            out.append((evals, self.config.generation_cost_ns(evals)))
+            self._last_stats = stats
+        return out
 
     def publish(self, t_ns: int) -> None:
         assert self._last_stats is not None

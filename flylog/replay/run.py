@@ -8,14 +8,12 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-import pyarrow as pa
-
 from flylog.config import to_mapping
 from flylog.errors import LogError
 from flylog.io import contract
 from flylog.io.pairing import pair_stereo
 from flylog.io.reader import open_log
-from flylog.io.tables import Column, TableWriter, schema
+from flylog.io.tables import Column, TableWriter
 from flylog.io.writer import Compression, LogWriter
 from flylog.replay.clock import ClockConfig, VirtualClock
 from flylog.replay.config import ReplayConfig
@@ -33,7 +31,8 @@ PROGRESS_STEP_NS = 100_000_000
 # (≈ 20 MB at 640×480), enough to hide a chunk's decompression behind the engine's work.
 READ_AHEAD_MESSAGES = 64
 
-_F, _I, _S = pa.float64(), pa.int64(), pa.string()
+# pyarrow type names: pyarrow is imported with the first row (flylog.io.tables)
+_F, _I, _S = "float64", "int64", "string"
 
 # RUN.parquet: one row per planner tick (the README's table is made from this).
 STEP_COLUMNS = (
@@ -89,6 +88,8 @@ def clock_config(config: ReplayConfig, frame_period_ns: int) -> ClockConfig:
             config.engine.max_evaluations
             + config.obstacles.most_distinct_evaluations(config.engine.flies)
         ),
+        # no stale fly and no distinctness charged (that comes with the first after a tick)
+        max_later_generation_cost_ns=config.generation_cost_ns(config.engine.max_later_evaluations),
     )
 
 
@@ -115,7 +116,7 @@ def replay(
     try:
         with (
             LogWriter(output, compression=RUN_COMPRESSION) as out,
-            TableWriter(table, schema(STEP_COLUMNS)) as rows,
+            TableWriter(table, STEP_COLUMNS) as rows,
         ):
             pipeline = FlyPipeline(
                 config,

@@ -209,8 +209,8 @@ def _generation_figures(pair, depth, reading, rig) -> list[dict]:
 
 # The engine's kernels and operators, as cProfile names them (file, function).
 _PROFILED = [
-    # one compiled call a generation: scoring, selection with sharing, newcomers, scouts
-    ("generation.py", "generation_kernel"),
+    # one compiled call a step (or a run of steps): scoring, selection, newcomers, scouts
+    ("generation.py", "generations_kernel"),
     ("fitness.py", "fitness_into"),  # the parallel kernel, for the stale flies of a new frame
     ("engine.py", "step"),
 ]
@@ -330,6 +330,12 @@ def _log_calls(log: Path, seconds: float) -> tuple[StereoRig, list[tuple[str, ob
             calls.append(("step", None))
             return evaluations, config.generation_cost_ns(evaluations)
 
+        def run_generations(self, count, keep_published):
+            evaluations = 5000 if calls[-1][0] == "images" else 2500
+            costs = [evaluations] + [2500] * (count - 1)
+            calls.append(("steps", count))
+            return [(e, config.generation_cost_ns(e)) for e in costs]
+
         def publish(self, t_ns):
             calls.append(("publish", None))
 
@@ -368,6 +374,9 @@ def _log_rhythm_figures(out_dir: Path) -> list[dict]:
             elif kind == "step":
                 engine.step()
                 steps += 1
+            elif kind == "steps":  # the generations no tick comes between: one call
+                engine.steps(value)
+                steps += value
             else:
                 _ = engine.population
         return time.thread_time() - t0, steps

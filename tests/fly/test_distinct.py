@@ -52,6 +52,24 @@ def test_shifted_points_keep_the_left_pixel_and_move_the_disparity():
         np.testing.assert_array_equal(shifted[k][~ok], xyz[~ok])  # left where it was
 
 
+def test_all_shifts_at_once_equal_one_shift_at_a_time_bit_for_bit():
+    rng = np.random.default_rng(3)
+    xyz = RIG.backproject(rng.uniform(-20, RIG.width + 20, 500),
+                          rng.uniform(0, RIG.height, 500), rng.uniform(0.3, 30.0, 500))  # fmt: skip
+    xyz[::17, 0] = RIG.mount_x - 0.2  # behind the cameras
+    shifts = (-40, -4, -2, 2, 4)
+    shifted, valid = shifted_along_epipolar(xyz, RIG, shifts)
+    u_left, u_right, v, depth = RIG.project(xyz)
+    fb = RIG.focal_px * RIG.baseline
+    for k, s in enumerate(shifts):  # the reference: one shift at a time
+        d = (u_left - u_right) + s
+        ok = (d > 0) & (depth > 0)
+        one = np.where(ok[:, None], RIG.backproject(u_left, v, fb / np.where(ok, d, 1.0)), xyz)
+        np.testing.assert_array_equal(valid[k], ok)
+        np.testing.assert_array_equal(shifted[k], one)
+    assert not valid.all() and valid.any()
+
+
 @pytest.mark.parametrize("use_numba", [False, True])
 def test_true_depth_is_distinct_and_a_wrong_one_is_not(use_numba):
     left, right = _textured_pair()

@@ -81,3 +81,56 @@ def test_one_call_per_generation_equals_the_numpy_steps(scene, parallel_min, mon
     pa, pb = a.population, b.population
     for field in ("xyz", "fitness", "vision", "stale", "stamp_ns", "age"):
         np.testing.assert_array_equal(getattr(pa, field), getattr(pb, field), err_msg=field)
+
+
+def _replayed_in_batches(config, scene, seed=5):
+    """:func:`_replayed` with each run of generations that nothing comes between made by
+    one :meth:`FlyEngine.steps` call (replay's rhythm between two ticks)."""
+    pair, reading = scene
+    engine = FlyEngine(config, SMALL, np.random.default_rng(seed))
+    stats = []
+    for frame in range(3):
+        engine.set_images(pair)
+        if frame == 0:
+            engine.set_sonar(reading)
+        if frame == 1:
+            stats += engine.steps(1)
+            engine.set_sonar(reading)
+            stats += engine.steps(1)
+        else:
+            stats += engine.steps(2)
+        for _ in range(2):
+            engine.apply_motion(Pose2D(0.01, 0.0, -0.03))
+            stats += engine.steps(1)
+    return engine, stats
+
+
+@pytest.mark.parametrize("parallel_min", [engine_module.PARALLEL_MIN_EVALUATIONS, 300])
+@pytest.mark.parametrize("backend", [Backend.NUMBA, Backend.NUMPY])
+def test_generations_in_one_call_equal_the_numpy_steps(scene, parallel_min, backend, monkeypatch):
+    monkeypatch.setattr(engine_module, "PARALLEL_MIN_EVALUATIONS", parallel_min)
+    cfg = EngineConfig(flies=600)
+    a, stats_a = _replayed_in_batches(dataclasses.replace(cfg, backend=backend), scene)
+    b, stats_b = _replayed(dataclasses.replace(cfg, backend=Backend.NUMPY), scene)
+    assert stats_a == stats_b
+    pa, pb = a.population, b.population
+    for field in ("xyz", "fitness", "vision", "stale", "stamp_ns", "age"):
+        np.testing.assert_array_equal(getattr(pa, field), getattr(pb, field), err_msg=field)
+
+
+@pytest.mark.parametrize("count", [1, 2, 3, 7])
+def test_steps_equal_as_many_steps(scene, count):
+    pair, reading = scene
+    runs = []
+    for batched in (False, True):
+        engine = FlyEngine(EngineConfig(flies=600), SMALL, np.random.default_rng(9))
+        engine.set_images(pair)
+        engine.set_sonar(reading)
+        stats = engine.steps(count) if batched else [engine.step() for _ in range(count)]
+        stats += engine.steps(count) if batched else [engine.step() for _ in range(count)]
+        runs.append((engine.population, stats, engine.generation))
+    (pa, sa, ga), (pb, sb, gb) = runs
+    assert sa == sb and ga == gb == 2 * count
+    for field in ("xyz", "fitness", "vision", "stale", "stamp_ns", "age"):
+        np.testing.assert_array_equal(getattr(pa, field), getattr(pb, field), err_msg=field)
+    assert FlyEngine(EngineConfig(flies=100), SMALL, np.random.default_rng(0)).steps(0) == []

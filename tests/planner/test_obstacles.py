@@ -70,6 +70,19 @@ def test_density_uses_the_window_but_marks_only_cells_with_flies():
     assert obs.box_sum(counts, 1)[0, 0] == 0
 
 
+@pytest.mark.parametrize("half_width", [0, 1, 3])
+@pytest.mark.parametrize(
+    ("rows", "cols"),
+    [(slice(5, 17), slice(0, 9)), (slice(0, 30), slice(22, 30)), (slice(12, 13), slice(4, 4))],
+)
+def test_density_of_a_window_equals_the_whole_grid_s(half_width, rows, cols):
+    counts = np.random.default_rng(4).poisson(0.7, (30, 30))
+    whole = obs.dense_cells(counts, 0.1, half_width, 40.0)
+    window = obs.dense_cells(counts, 0.1, half_width, 40.0, rows, cols)
+    np.testing.assert_array_equal(window, whole[rows, cols])
+    assert whole.any() and not whole.all()
+
+
 def test_inflation_by_robot_radius_is_a_disk():
     p = _planner(robot_radius=0.3)
     p.update_obstacles(_cluster(2.05, 0.05, 10), ROBOT, FOV)

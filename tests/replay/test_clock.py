@@ -33,6 +33,9 @@ class Recorder:
         self.generations.append(self.now_pair)
         return self.evals, round(self.evals * 1e9 / self.evals_per_second)
 
+    def run_generations(self, count, keep_published):
+        return [self.generation(keep_published) for _ in range(count)]
+
     def publish(self, t_ns):
         self._visible = len(self.generations)
         self.published.append((t_ns, self._visible))
@@ -187,3 +190,37 @@ def test_without_a_bound_every_generation_keeps_it():
     pipeline = Keeper()
     run(frames(3), pipeline, config(Mode.PER_FRAME, 3, {"a": 30 * MS}), 300 * MS)
     assert pipeline.keeps and all(pipeline.keeps)
+
+
+class Batcher(Recorder):
+    """Records how many generations each call of run_generations asked for."""
+
+    def __init__(self, **kw) -> None:
+        super().__init__(**kw)
+        self.batches: list[int] = []
+
+    def run_generations(self, count, keep_published):
+        self.batches.append(count)
+        return super().run_generations(count, keep_published)
+
+
+@pytest.mark.parametrize("mode", [Mode.PER_FRAME, Mode.SYNC])
+def test_generations_no_tick_can_come_between_run_in_one_call(mode):
+    # 2 ms generations, 10 a frame; ticks every 11 and 23 ms and one on the last nanosecond
+    # of a generation: the runs between them go in one call, and every tick sees the same
+    ticks = {"a": 11 * MS, "b": 23 * MS, "edge": 402 * MS - 1}
+    seen = []
+    for bounds in ((None, None), (2 * MS, 2 * MS), (3 * MS, 2 * MS)):
+        pipeline = Batcher(evals=2000, evals_per_second=1e6)
+        cfg = ClockConfig(mode, 10, 100 * MS, ticks, *bounds)
+        stats = run(frames(6), pipeline, cfg, 600 * MS)
+        seen.append((stats, pipeline.generations, pipeline.ticks, pipeline.delivered))
+        assert (max(pipeline.batches, default=0) > 1) == (bounds[0] is not None)
+    assert seen[1] == seen[0] and seen[2] == seen[0]
+
+
+def test_a_later_generation_costlier_than_its_bound_is_an_error():
+    pipeline = Batcher(evals=3000, evals_per_second=1e6)  # 3 ms: the first may, not the next
+    cfg = ClockConfig(Mode.PER_FRAME, 5, 100 * MS, {"a": 50 * MS}, 3 * MS, 2 * MS)
+    with pytest.raises(RuntimeError, match="more than the 2000000 ns"):
+        run(frames(3), pipeline, cfg, 300 * MS)
