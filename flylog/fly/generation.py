@@ -103,32 +103,24 @@ def generations_kernel(count, made, rng, lrows, rrows, channels, k, window, guar
     them; called one by one, each return waited for the GIL that the planner's worker and
     the reading thread hold for their Python (~0.5 s of the 60 s reference replay's ~4.5 s
     on a quiet 2-core machine), and each call cost its dispatch and Python glue."""
+    # ping-pong: generation g reads one set of population arrays and writes the other
+    src = (xyz, fitness, vision, stale, stamp_ns, age)
+    dst = (oxyz, ofit, ovis, ostale, ostamp, oage)
     for g in range(count):
         fuse = fuse_all and g == 0
-        if g % 2 == 0:
-            e, kept, children, found = generation_kernel(
-                rng, lrows, rrows, channels, k, window, guard, gy_weight, stamp,
-                xyz, fitness, vision, stale, stamp_ns, age,
-                oxyz, ofit, ovis, ostale, ostamp, oage,
-                stale_index, everyone, fuse, sonars, cos_half_cone, tolerance, bonus,
-                survivors, sharing, coefficient, work, radius, grid, ints, uv, counts,
-                rate2, rate3, sigma_px, sigma_d, newcomer_k, arcs, half_cone, arc_k, tries,
-                n_sonar, n_immigrants, scout_fraction, c0, c1, in_right, n_depths,
-                scout_k, candidates, candidate_index, candidate_fitness,
-                newcomers, row_scratch,
-            )  # fmt: skip
-        else:
-            e, kept, children, found = generation_kernel(
-                rng, lrows, rrows, channels, k, window, guard, gy_weight, stamp,
-                oxyz, ofit, ovis, ostale, ostamp, oage,
-                xyz, fitness, vision, stale, stamp_ns, age,
-                stale_index, everyone, fuse, sonars, cos_half_cone, tolerance, bonus,
-                survivors, sharing, coefficient, work, radius, grid, ints, uv, counts,
-                rate2, rate3, sigma_px, sigma_d, newcomer_k, arcs, half_cone, arc_k, tries,
-                n_sonar, n_immigrants, scout_fraction, c0, c1, in_right, n_depths,
-                scout_k, candidates, candidate_index, candidate_fitness,
-                newcomers, row_scratch,
-            )  # fmt: skip
+        ax, af, av, ast, ats, aag = src
+        bx, bf, bv, bst, bts, bag = dst
+        e, kept, children, found = generation_kernel(
+            rng, lrows, rrows, channels, k, window, guard, gy_weight, stamp,
+            ax, af, av, ast, ats, aag, bx, bf, bv, bst, bts, bag,
+            stale_index, everyone, fuse, sonars, cos_half_cone, tolerance, bonus,
+            survivors, sharing, coefficient, work, radius, grid, ints, uv, counts,
+            rate2, rate3, sigma_px, sigma_d, newcomer_k, arcs, half_cone, arc_k, tries,
+            n_sonar, n_immigrants, scout_fraction, c0, c1, in_right, n_depths,
+            scout_k, candidates, candidate_index, candidate_fitness,
+            newcomers, row_scratch,
+        )  # fmt: skip
+        src, dst = dst, src
         made[g, 0] = e
         made[g, 1] = kept
         made[g, 2] = children
