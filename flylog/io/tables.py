@@ -77,13 +77,14 @@ class TableWriter:
         metadata: dict[str, str] | None = None,
     ) -> None:
         self.path = Path(path)
-        self._schema: pa.Schema | tuple[Column, ...]
+        self._source: pa.Schema | tuple[Column, ...]
         if isinstance(schema, Sequence):  # columns (a pyarrow schema is no Sequence)
-            self._schema = tuple(schema)
-            names = [c.name for c in self._schema]
+            self._source = tuple(schema)
+            names = [c.name for c in self._source]
         else:
-            self._schema, names = schema, schema.names
+            self._source, names = schema, schema.names
         self._metadata = metadata
+        self._schema: pa.Schema | None = None  # built from _source at first use
         self._rows_per_group = rows_per_group
         self._columns: dict[str, list[Any]] = {name: [] for name in names}
         self._buffered = 0
@@ -93,8 +94,11 @@ class TableWriter:
 
     @property
     def schema(self) -> pa.Schema:
-        out = schema(self._schema) if isinstance(self._schema, tuple) else self._schema
-        return out.with_metadata(self._metadata) if self._metadata else out
+        if self._schema is None:
+            source = self._source
+            out = schema(source) if isinstance(source, tuple) else source
+            self._schema = out.with_metadata(self._metadata) if self._metadata else out
+        return self._schema
 
     def __enter__(self) -> TableWriter:
         fd, self._tmp = temporary_beside(self.path)
@@ -106,9 +110,7 @@ class TableWriter:
             import pyarrow.parquet as pq
 
             assert self._tmp is not None, "use TableWriter inside a `with` block"
-            self._schema = self.schema  # built once
-            self._metadata = None
-            self._writer = pq.ParquetWriter(self._tmp, self._schema, compression="zstd")
+            self._writer = pq.ParquetWriter(self._tmp, self.schema, compression="zstd")
         return self._writer
 
     def append(self, row: dict[str, Any]) -> None:

@@ -195,15 +195,7 @@ class FlyPipeline:
             raise TypeError(msg)
 
     def generation(self, keep_published: bool = True) -> tuple[int, int]:
-        if keep_published:
-            self._published_population()
-        elif self._published_live:
-            self._published_live, self._published_gone = False, True
-        self._last_stats = self.engine.step()
-        evals = self._last_stats.evaluations + self._owed_evaluations
-        self._owed_evaluations = 0
-        self._evaluations += evals
-        return evals, self.config.generation_cost_ns(evals)
+        return self.run_generations(1, keep_published)[0]
 
     def run_generations(self, count: int, keep_published: bool = False) -> list[tuple[int, int]]:
         """``count`` generations, as ``count`` calls of :meth:`generation` make them, in one
