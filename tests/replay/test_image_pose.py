@@ -1,0 +1,57 @@
+"""The flies are expressed where the robot was when their images were taken."""
+
+import math
+from collections import deque
+
+import numpy as np
+import pytest
+
+from flylog.geometry import Pose2D, StereoRig
+from flylog.replay.config import ReplayConfig
+from flylog.replay.pipeline import FlyPipeline, pose_at
+from flylog.sensors import OdomReading, StereoPair
+
+MS = 1_000_000
+
+
+def _turning(n: int, rate: float = 0.5) -> deque[OdomReading]:
+    """Odometry at 50 Hz of a robot turning on the spot at ``rate`` rad/s from heading 3."""
+    return deque(
+        OdomReading(20 * MS * i, Pose2D(0.0, 0.0, math.remainder(3.0 + rate * 0.02 * i, math.tau)))
+        for i in range(n)
+    )
+
+
+def test_pose_at_interpolates_between_the_readings_around_the_stamp():
+    readings = deque(
+        [OdomReading(0, Pose2D(0.0, 0.0, 0.0)), OdomReading(20 * MS, Pose2D(0.2, -0.1, 0.4))]
+    )
+    mid = pose_at(readings, 5 * MS)
+    assert (mid.x, mid.y, mid.theta) == pytest.approx((0.05, -0.025, 0.1))
+    assert pose_at(readings, 30 * MS) == readings[-1].pose  # past the newest: the newest
+    assert pose_at(readings, -5 * MS) == readings[0].pose  # before the oldest kept: the oldest
+    # across ±pi the heading goes the short way
+    turning = _turning(20)
+    between = pose_at(turning, 290 * MS)  # readings 14 and 15: 3.14 and 3.15 - 2 pi rad
+    assert between.theta == pytest.approx(math.remainder(3.145, math.tau))
+
+
+def test_published_flies_carry_the_pose_of_their_images_not_the_newest_odometry():
+    rig = StereoRig(width=64, height=48, focal_px=50.0)
+    config = ReplayConfig(seed=0)
+    pipeline = FlyPipeline(config, rig, Pose2D(0.0, 0.0, 3.0), (5.0, 0.0), lambda *a: None)
+    try:
+        readings = _turning(8)
+        for r in list(readings)[:4]:  # odometry up to 60 ms
+            pipeline.deliver(r)
+        images = np.full((48, 64, 3), 128, dtype=np.uint8)
+        pipeline.deliver(StereoPair(50 * MS, images, images))  # taken at 50 ms
+        for r in list(readings)[4:]:  # odometry goes on to 140 ms while the engine works
+            pipeline.deliver(r)
+        pipeline.generation(keep_published=False)
+        pipeline.publish(150 * MS)
+        at_images = pose_at(readings, 50 * MS)
+        assert pipeline._published_pose == at_images  # what ticks map the flies with
+        assert pipeline._published_pose != readings[-1].pose
+    finally:
+        pipeline.close()
