@@ -19,6 +19,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from flylog.fly.engine import FlyEngine, GenerationStats
+from flylog.fly.fusion import moved_by_odometry
 from flylog.fly.population import Population
 from flylog.geometry import Pose2D, StereoRig, relative, transform_points_2d
 from flylog.geometry.poses import wrap_angle
@@ -411,23 +412,30 @@ class FlyPipeline:
         robot_pose: Pose2D,
     ) -> _Outputs:
         """A snapshot's messages: the flies (with each fly's distinctness when the obstacle
-        rule reads it), their overlay and odom → base_link where they were published (when
-        a population was), then the planner's potential and path."""
+        rule reads it) in base_link at ``robot_pose`` (the newest odometry), their overlay
+        and odom → base_link there (when a population was published), then the planner's
+        potential and path."""
         messages: list[tuple[str, int, Any]] = []
         if pop is not None:
             distinct = None
             if candidates is not None:
                 distinct = self._obstacles(pop, pair, generation, candidates)[1]
-            uv, colours = self._overlay(pop)
+            uv, colours = self._overlay(pop)  # on the images the flies were scored on
+            # The flies are expressed where the robot was when their images were taken; the
+            # cloud goes out in base_link at the snapshot's time, like every message (the
+            # metrics render the truth there).
+            xyz = pop.xyz
+            if published_pose != robot_pose:
+                xyz = moved_by_odometry(xyz, relative(published_pose, robot_pose))
             cloud = encode.point_cloud(
-                pop.xyz, pop.fitness, t_ns, contract.BASE_FRAME, pop.age, distinct=distinct
+                xyz, pop.fitness, t_ns, contract.BASE_FRAME, pop.age, distinct=distinct
             )
             messages += [
                 (contract.FLIES, t_ns, cloud),
                 (contract.FLIES_OVERLAY, t_ns, encode.image_annotations(uv, colours, t_ns)),
             ]
             if self._write_tf:
-                transform = encode.odom_transform(published_pose)
+                transform = encode.odom_transform(robot_pose)
                 messages.append((contract.TF, t_ns, encode.frame_transforms([transform], t_ns)))
         return _Outputs(messages + self._planner_snapshot(t_ns, robot_pose).messages)
 

@@ -55,3 +55,43 @@ def test_published_flies_carry_the_pose_of_their_images_not_the_newest_odometry(
         assert pipeline._published_pose != readings[-1].pose
     finally:
         pipeline.close()
+
+
+def test_the_flies_snapshot_is_in_base_link_at_the_newest_odometry(monkeypatch):
+    # scored where the images were taken (50 ms), published where the robot is (140 ms)
+    from flylog.fly.fusion import moved_by_odometry
+    from flylog.geometry import relative
+    from flylog.io import encode
+
+    sent = []  # the clouds as they go to the /flies encoder
+    point_cloud = encode.point_cloud
+
+    def spy(xyz, *args, **kwargs):
+        sent.append(np.array(xyz))
+        return point_cloud(xyz, *args, **kwargs)
+
+    monkeypatch.setattr(encode, "point_cloud", spy)
+
+    rig = StereoRig(width=64, height=48, focal_px=50.0)
+    pipeline = FlyPipeline(
+        ReplayConfig(seed=0), rig, Pose2D(0.0, 0.0, 3.0), (5.0, 0.0), lambda *a: None
+    )
+    try:
+        readings = _turning(8)
+        for r in list(readings)[:4]:
+            pipeline.deliver(r)
+        images = np.full((48, 64, 3), 128, dtype=np.uint8)
+        pipeline.deliver(StereoPair(50 * MS, images, images))
+        for r in list(readings)[4:]:
+            pipeline.deliver(r)
+        pipeline.generation(keep_published=False)
+        pipeline.publish(150 * MS)
+        scored = pipeline.engine.population.xyz.copy()
+        pipeline.tick("snapshot", 150 * MS)
+        pipeline.flush()
+    finally:
+        pipeline.close()
+    assert len(sent) == 1
+    expected = moved_by_odometry(scored, relative(pose_at(readings, 50 * MS), readings[-1].pose))
+    np.testing.assert_allclose(sent[0], expected, rtol=0, atol=1e-12)
+    assert not np.allclose(sent[0], scored, atol=1e-3)  # 0.045 rad of turn between
