@@ -159,7 +159,8 @@ class FlyPipeline:
         self._write_tf = write_tf
         self._on_row = on_row
         self._odom = OdomReading(0, start)  # newest odometry delivered
-        # the last readings, to find the odometry at an image's stamp (50 Hz: 0.2 s)
+        # the last readings, to find the odometry at an image's stamp (16 at 50 Hz: 0.3 s,
+        # more than --sync's delay of one frame period)
         self._odom_history: deque[OdomReading] = deque([self._odom], maxlen=ODOM_HISTORY)
         # odometry at the stamp of the images the population is scored on: the flies are
         # expressed in base_link there (the pose published with them)
