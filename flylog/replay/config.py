@@ -1,6 +1,6 @@
 """The whole configuration of a replay (and of the closed loop): one TOML file, every default
-written once. Top-level fields, then the ``[engine]``, ``[sgbm]``, ``[planner]`` and
-``[obstacles]`` tables."""
+written once. Top-level fields, then the ``[engine]``, ``[sgbm]``, ``[planner]``,
+``[obstacles]`` and ``[heading]`` tables."""
 
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ from pathlib import Path
 from flylog.baseline.config import SgbmConfig
 from flylog.config import from_mapping, param, read_toml
 from flylog.fly.config import EngineConfig
+from flylog.fly.heading import HeadingConfig
 from flylog.fly.obstacles import ObstacleFlies
 from flylog.planner.config import PlannerConfig
 from flylog.replay.clock import Mode
@@ -66,6 +67,9 @@ class ReplayConfig:
     sgbm: SgbmConfig = param(SgbmConfig(), help="the conventional stereo baseline")
     planner: PlannerConfig = param(PlannerConfig(), help="the harmonic planner")
     obstacles: ObstacleFlies = param(ObstacleFlies(), help="obstacle flies")
+    heading: HeadingConfig = param(
+        HeadingConfig(), help="the visual heading correction of the odometry"
+    )
 
     def __post_init__(self) -> None:
         if self.stereo is Stereo.SGBM and self.generations_per_frame > 1:

@@ -20,8 +20,9 @@ import numpy as np
 
 from flylog.fly.engine import FlyEngine, GenerationStats
 from flylog.fly.fusion import moved_by_odometry
+from flylog.fly.heading import fused_yaw, measure_yaw
 from flylog.fly.population import Population
-from flylog.geometry import Pose2D, StereoRig, relative, transform_points_2d
+from flylog.geometry import Pose2D, StereoRig, compose, inverse, relative, transform_points_2d
 from flylog.geometry.poses import wrap_angle
 from flylog.io import contract, encode
 from flylog.io.readahead import lower_thread_priority
@@ -97,24 +98,37 @@ ODOM_HISTORY = 16  # odometry readings kept to find the pose at an image's stamp
 
 def pose_at(readings: deque[OdomReading], stamp_ns: int) -> Pose2D:
     """The odometric pose at ``stamp_ns``: linear between the two readings around it (the
-    heading along the shorter way), else the nearest reading kept (the newest for a stamp
-    past the last reading)."""
+    heading along the shorter way); past the newest reading, the newest two's motion carried
+    on for at most one interval between them (records come in stamp order: an image is
+    delivered before the reading after it, up to an odometry period later, 10 mrad of turn
+    at 0.5 rad/s); before the oldest kept, the oldest."""
     newest = readings[-1]
     if stamp_ns >= newest.stamp_ns:
-        return newest.pose
+        if len(readings) < 2 or stamp_ns == newest.stamp_ns:
+            return newest.pose
+        previous = readings[-2]
+        span = newest.stamp_ns - previous.stamp_ns
+        if span <= 0:
+            return newest.pose
+        return _along(
+            previous.pose, newest.pose, 1.0 + min(stamp_ns - newest.stamp_ns, span) / span
+        )
     later = newest
     for earlier in reversed(readings):
         if earlier.stamp_ns <= stamp_ns:
             if later.stamp_ns == earlier.stamp_ns:
                 return earlier.pose
             a = (stamp_ns - earlier.stamp_ns) / (later.stamp_ns - earlier.stamp_ns)
-            p, q = earlier.pose, later.pose
-            turn = wrap_angle(q.theta - p.theta)
-            return Pose2D(
-                p.x + a * (q.x - p.x), p.y + a * (q.y - p.y), wrap_angle(p.theta + a * turn)
-            )
+            return _along(earlier.pose, later.pose, a)
         later = earlier
     return later.pose
+
+
+def _along(p: Pose2D, q: Pose2D, a: float) -> Pose2D:
+    """The pose a fraction ``a`` of the way from p to q (a > 1: beyond q), position and
+    heading (the shorter way) linear."""
+    turn = wrap_angle(q.theta - p.theta)
+    return Pose2D(p.x + a * (q.x - p.x), p.y + a * (q.y - p.y), wrap_angle(p.theta + a * turn))
 
 
 class FlyPipeline:
@@ -158,12 +172,15 @@ class FlyPipeline:
         self._write = write
         self._write_tf = write_tf
         self._on_row = on_row
-        self._odom = OdomReading(0, start)  # newest odometry delivered
-        # the last readings, to find the odometry at an image's stamp (16 at 50 Hz: 0.3 s,
-        # more than --sync's delay of one frame period)
+        self._odom = OdomReading(0, start)  # newest odometry delivered (heading-corrected)
+        # the last readings as delivered, to find the odometry at an image's stamp (16 at
+        # 50 Hz: 0.3 s, more than --sync's delay of one frame period)
         self._odom_history: deque[OdomReading] = deque([self._odom], maxlen=ODOM_HISTORY)
-        # odometry at the stamp of the images the population is scored on: the flies are
-        # expressed in base_link there (the pose published with them)
+        # the visual heading's correction (config.heading): the robot's pose is this ⊕ the
+        # odometry's (None: none yet, the odometry's pose as it is)
+        self._correction: Pose2D | None = None
+        # (corrected) odometry at the stamp of the images the population is scored on: the
+        # flies are expressed in base_link there (the pose published with them)
         self._engine_pose: Pose2D | None = None
         self._last_stats: GenerationStats | None = None
         # what ticks see: the newest population published, and where the robot was then
@@ -217,8 +234,10 @@ class FlyPipeline:
             # robot was when those were taken. Moved to the newest odometry instead, they were
             # scored (and bred) up to a frame period (and, --sync, two) off their images'
             # pose: 20-30 mrad of rotation at 0.5 rad/s, in the published cloud too.
-            pose = pose_at(self._odom_history, record.stamp_ns)
+            odometry = pose_at(self._odom_history, record.stamp_ns)
+            pose = self._corrected(odometry)
             if self._engine_pose is not None:
+                pose = self._heading_measured(record, odometry, pose)
                 self.engine.apply_motion(relative(self._engine_pose, pose))
             self._engine_pose = pose
             self.engine.set_images(record)
@@ -227,11 +246,50 @@ class FlyPipeline:
             self.engine.set_sonar(record)
             self._sonar = (record, self._odom.pose)
         elif isinstance(record, OdomReading):
-            self._odom = record
             self._odom_history.append(record)
+            self._odom = OdomReading(record.stamp_ns, self._corrected(record.pose))
         else:
             msg = f"the pipeline cannot use a {type(record).__name__}"
             raise TypeError(msg)
+
+    @property
+    def pose(self) -> Pose2D:
+        """The robot's pose now: the newest odometry, heading-corrected."""
+        return self._odom.pose
+
+    def _corrected(self, odometry: Pose2D) -> Pose2D:
+        """The robot's pose for an odometric pose: the heading's correction ⊕ it."""
+        return odometry if self._correction is None else compose(self._correction, odometry)
+
+    def _heading_measured(self, pair: StereoPair, odometry: Pose2D, pose: Pose2D) -> Pose2D:
+        """The robot's pose at ``pair`` (``pose``, from ``odometry`` there), its heading
+        corrected by the flies' measurement of the turn since the previous pair fused with
+        the odometry's (config.heading); the correction then applies to all odometry."""
+        cfg, previous = self.config.heading, self._pair
+        assert self._engine_pose is not None
+        if not cfg.enabled or previous is None:
+            return pose
+        increment = relative(self._engine_pose, pose)
+        variance = cfg.odometry_variance(increment, (pair.stamp_ns - previous.stamp_ns) / 1e9)
+        if variance == 0.0:
+            return pose
+        pop = self.engine.population
+        fittest = np.argsort(-pop.fitness, kind="stable")
+        fittest = fittest[pop.fitness[fittest] > 0]
+        measured = measure_yaw(
+            (previous.left, previous.right), (pair.left, pair.right), pop.xyz[fittest],
+            increment, self.rig, cfg,
+        )  # fmt: skip
+        self._owed_evaluations += cfg.evaluations(measured.flies)
+        if measured.yaw is None:
+            return pose
+        sd = cfg.measurement_sd_px / self.rig.focal_px
+        turn = fused_yaw(measured.yaw, variance, sd, cfg.gate)
+        pose = Pose2D(pose.x, pose.y, wrap_angle(pose.theta + turn))
+        self._correction = compose(pose, inverse(odometry))
+        newest = self._odom_history[-1]
+        self._odom = OdomReading(newest.stamp_ns, self._corrected(newest.pose))
+        return pose
 
     def generation(self, keep_published: bool = True) -> tuple[int, int]:
         return self.run_generations(1, keep_published)[0]

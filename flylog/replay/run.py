@@ -83,10 +83,12 @@ def clock_config(config: ReplayConfig, frame_period_ns: int) -> ClockConfig:
             PLANNER_TICK: round(1e9 / config.planner.tick_rate),
             SNAPSHOT_TICK: round(1e9 / config.snapshot_rate),
         },
-        # SGBM's cost is fixed
+        # SGBM's cost is fixed; the first generation after a stereo pair also pays for the
+        # heading's measurement
         max_generation_cost_ns=config.generation_cost_ns(
             config.engine.max_evaluations
             + config.obstacles.most_distinct_evaluations(config.engine.flies)
+            + config.heading.max_evaluations
         ),
         # no stale fly and no distinctness charged (that comes with the first after a tick)
         max_later_generation_cost_ns=config.generation_cost_ns(config.engine.max_later_evaluations),

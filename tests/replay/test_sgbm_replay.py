@@ -58,9 +58,9 @@ def test_writes_the_same_topics_as_the_flies(sgbm_run, tmp_path):
     assert pq.read_table(sgbm_run.table).schema == pq.read_table(flies.table).schema
     # both are sync: the same frames are processed, one SGBM step each
     assert sgbm_run.frames == flies.frames == sgbm_run.generations
-    # SGBM makes no fitness evaluations; the obstacle rule's distinctness test does (on its
-    # points as on flies), and nothing else
-    paper_rule = replace_dotted(SGBM, {"obstacles.min_distinctness": 0.0})
+    # SGBM makes no fitness evaluations; the obstacle rule's distinctness test and the
+    # heading's scan do (on its points as on flies), and nothing else
+    paper_rule = replace_dotted(SGBM, {"obstacles.min_distinctness": 0.0, "heading.enabled": False})
     assert replay(CORRIDOR, tmp_path / "paper.mcap", paper_rule).evaluations == 0
     assert sgbm_run.evaluations > 0 and sgbm_run.stereo == "sgbm"
 
@@ -149,7 +149,7 @@ def test_closed_loop_drives_with_sgbm(tmp_path):
     config = tmp_path / "loop.toml"
     config.write_text(
         'stereo = "sgbm"\n[engine]\nflies = 600\n[sgbm]\nnum_disparities = 16\n'
-        "[obstacles]\nmin_distinctness = 0.0\n"  # no fitness evaluations at all
+        "[obstacles]\nmin_distinctness = 0.0\n[heading]\nenabled = false\n"  # no evaluations
     )
     out = tmp_path / "loop.mcap"
     scene = Path(__file__).resolve().parents[2] / "fixtures" / "scenes" / "corridor.toml"
