@@ -30,15 +30,7 @@ import numba
 import numpy as np
 
 from flylog.config import param
-from flylog.fly.fitness import _sobel_norm2, _zssd_lanes, as_planes, rig_constants
-from flylog.fly.fitness_vector import (
-    HALF,
-    LANES,
-    MAX_CHANNELS,
-    lane_masks,
-    window_terms_16,
-    window_terms_32,
-)
+from flylog.fly.fitness import as_planes, rig_constants
 from flylog.fly.fusion import moved_by_odometry
 from flylog.geometry import Pose2D, StereoRig
 
@@ -154,15 +146,14 @@ def moved_and_turned(xyz: np.ndarray, increment: Pose2D, extra_yaw: float) -> np
     return moved_by_odometry(moved_by_odometry(xyz, increment), Pose2D(0.0, 0.0, extra_yaw))
 
 
-def _rounded(rig: StereoRig, xyz: np.ndarray, margin: int) -> tuple[np.ndarray, ...]:
-    """Rounded (row, left column, right column) of each point and whether its margin-wide
-    neighbourhood lies in both images, in front of the cameras."""
+def _inside(rig: StereoRig, xyz: np.ndarray, margin: int) -> np.ndarray:
+    """Whether each point lies in front of the cameras with the bilinear samples of its
+    margin-wide neighbourhood inside both images."""
     u_left, u_right, v, depth = rig.project(xyz)
-    rows, ul, ur = (np.floor(a + 0.5) for a in (v, u_left, u_right))
-    inside = (depth > 0) & (rows >= margin) & (rows <= rig.height - 1 - margin)
-    for u in (ul, ur):
-        inside &= (u >= margin) & (u <= rig.width - 1 - margin)
-    return rows.astype(np.intp), ul.astype(np.intp), ur.astype(np.intp), inside
+    ok = (depth > 0) & (v >= margin) & (v <= rig.height - 2 - margin)
+    for u in (u_left, u_right):
+        ok &= (u >= margin) & (u <= rig.width - 2 - margin)
+    return ok
 
 
 def comparable_flies(
@@ -172,10 +163,24 @@ def comparable_flies(
     k and at pair k+1 for every scanned yaw: the scan sums the same flies at every yaw (a
     point's column moves monotonically with the yaw, so the two ends of the scan decide)."""
     h = window // 2
-    ok = _rounded(rig, xyz, h)[3]
+    ok = _inside(rig, xyz, h)
     for extra in (offsets[0], offsets[-1]):
-        ok &= _rounded(rig, moved_and_turned(xyz, increment, float(extra)), h)[3]
+        ok &= _inside(rig, moved_and_turned(xyz, increment, float(extra)), h)
     return ok
+
+
+def bilinear_patches(image: np.ndarray, u: np.ndarray, v: np.ndarray, h: int) -> np.ndarray:
+    """(M, 2h+1, 2h+1, C) float64: the image sampled bilinearly on the pixel grid around
+    each (u, v), a sub-pixel position (column, row)."""
+    planes = as_planes(image).astype(np.float64)
+    off = np.arange(-h, h + 1)
+    uu = u[:, None, None] + off[None, None, :]
+    vv = v[:, None, None] + off[None, :, None]
+    x0, y0 = np.floor(uu).astype(np.intp), np.floor(vv).astype(np.intp)
+    fx, fy = (uu - x0)[..., None], (vv - y0)[..., None]
+    top = planes[y0, x0] * (1.0 - fx) + planes[y0, x0 + 1] * fx
+    bottom = planes[y0 + 1, x0] * (1.0 - fx) + planes[y0 + 1, x0 + 1] * fx
+    return top * (1.0 - fy) + bottom * fy
 
 
 def yaw_scores_numpy(
@@ -190,67 +195,67 @@ def yaw_scores_numpy(
 ) -> np.ndarray:
     """Reference: for each extra yaw of ``offsets``, Σ over the points ``xyz`` (base_link at
     pair k, all :func:`comparable_flies`) of G_k·(1/(ZSSD_left + g) + 1/(ZSSD_right + g)),
-    ZSSD between each point's patch in pair k (``before``: left, right images) and in pair
-    k+1 (``after``) per pixel, G_k = sqrt(|gx|) of the pair-k left patch."""
-    planes_k = [as_planes(a) for a in before]
-    planes_1 = [as_planes(a) for a in after]
-    channels = planes_k[0].shape[2]
+    ZSSD per pixel between each point's patch in pair k (``before``: left, right images) and
+    in pair k+1 (``after``), both sampled bilinearly at the point's exact projections (a
+    rounded projection makes each fly's score a step function of the yaw, whose sum is
+    biased wherever the flies' sub-pixel phases are not spread evenly); G_k = sqrt(|gx|) of
+    the pair-k left patch (central differences)."""
     h = window // 2
     n = window * window
-    off = np.arange(-h, h + 1)
+    channels = as_planes(before[0]).shape[2]
     g = guard * n * channels
-    rows_k, ul_k, ur_k, _ = _rounded(rig, xyz, h)
-
-    def patches(image: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
-        r = rows[:, None, None] + off[None, :, None]
-        return image[r, cols[:, None, None] + off[None, None, :]].astype(np.int64)
-
-    left_k = patches(planes_k[0], rows_k, ul_k)
-    right_k = patches(planes_k[1], rows_k, ur_k)
-    c = left_k[:, h - 1 : h + 2, h - 1 : h + 2]
-    gx = ((c[:, :, 2] - c[:, :, 0]) * np.array([1, 2, 1])[None, :, None]).sum(axis=1)
-    weight = np.sqrt(np.sqrt((gx**2).sum(axis=1).astype(np.float64)))
+    u_left, u_right, v, _ = rig.project(xyz)
+    left_k = bilinear_patches(before[0], u_left, v, h)
+    right_k = bilinear_patches(before[1], u_right, v, h)
+    gx = left_k[:, h, h + 1] - left_k[:, h, h - 1]
+    weight = np.sqrt(np.sqrt((gx * gx).sum(axis=1)))
     scores = np.empty(len(offsets))
     for j, extra in enumerate(offsets):
-        rows, ul, ur, _ = _rounded(rig, moved_and_turned(xyz, increment, float(extra)), h)
+        ul, ur, vv, _ = rig.project(moved_and_turned(xyz, increment, float(extra)))
         total = np.zeros(len(xyz))
-        for before_patch, image, cols in ((left_k, planes_1[0], ul), (right_k, planes_1[1], ur)):
-            d = before_patch - patches(image, rows, cols)
+        for patch_k, image, u in ((left_k, after[0], ul), (right_k, after[1], ur)):
+            d = patch_k - bilinear_patches(image, u, vv, h)
             s1 = d.sum(axis=(1, 2))
             s2 = (d * d).sum(axis=(1, 2))
-            zssd = (n * s2 - s1 * s1).sum(axis=1) / n
-            total += 1.0 / (zssd + g)
+            total += 1.0 / ((n * s2 - s1 * s1).sum(axis=1) / n + g)
         scores[j] = float((weight * total).sum())
     return scores
 
 
 @numba.njit(cache=True, nogil=True)
-def _project_rounded(x, y, z, k):  # pragma: no cover - compiled
-    """Rounded (row, left column, right column) of a point in front of the cameras."""
-    focal, cx, cy, half_b, mount_x, mount_h = k[0], k[1], k[2], k[3], k[4], k[5]
-    depth = x - mount_x
-    ul = math.floor(cx - focal * (y - half_b) / depth + 0.5)
-    ur = math.floor(cx - focal * (y + half_b) / depth + 0.5)
-    vv = math.floor(cy - focal * (z - mount_h) / depth + 0.5)
-    return int(vv), int(ul), int(ur)
+def _sample(rows, channels, u, v, h, out):  # pragma: no cover - compiled
+    """:func:`bilinear_patches` of one position into ``out`` ((2h+1)²·C, row-major, channel
+    last); ``rows``: an image as (H, W·C) uint8."""
+    x0 = math.floor(u)
+    y0 = math.floor(v)
+    fx = u - x0
+    fy = v - y0
+    t = 0
+    for r in range(-h, h + 1):
+        top = rows[y0 + r]
+        bottom = rows[y0 + r + 1]
+        for c in range(-h, h + 1):
+            a = (x0 + c) * channels
+            for ch in range(channels):
+                upper = float(top[a + ch]) * (1.0 - fx) + float(top[a + channels + ch]) * fx
+                lower = float(bottom[a + ch]) * (1.0 - fx) + float(bottom[a + channels + ch]) * fx
+                out[t] = upper * (1.0 - fy) + lower * fy
+                t += 1
 
 
 @numba.njit(cache=True, nogil=True)
-def _n_zssd(fa, fb, ba, bb, stride, window, channels, masks, scratch):  # pragma: no cover
-    """n·Σ_c ZSSD_c between the window at flat offset ``ba`` of ``fa`` and at ``bb`` of
-    ``fb``: in 16 or 32 vector lanes (the fitness kernel's) when the window fits them and
-    their reads stay inside the image, else the lane loop."""
-    ncols = window * channels
-    lanes = HALF if ncols <= HALF else LANES
-    n = window * window
-    fits = ncols <= LANES and channels <= MAX_CHANNELS
-    if fits and max(ba, bb) + (window - 1) * stride + lanes <= fa.size:
-        if lanes == HALF:
-            sq, squares, _ = window_terms_16(fa, fb, ba, bb, stride, window, masks)
-        else:
-            sq, squares, _ = window_terms_32(fa, fb, ba, bb, stride, window, masks)
-        return n * sq - squares
-    return _zssd_lanes(fa, fb, ba, bb, stride, window, channels, scratch)
+def _zssd(a, b, channels, n):  # pragma: no cover - compiled
+    """Σ_c ZSSD_c per pixel between two sampled patches (layout of :func:`_sample`)."""
+    s2 = 0.0
+    total = 0.0
+    for ch in range(channels):
+        s1 = 0.0
+        for t in range(ch, a.shape[0], channels):
+            d = a[t] - b[t]
+            s1 += d
+            s2 += d * d
+        total -= s1 * s1
+    return (n * s2 + total) / n
 
 
 @numba.njit(cache=True, nogil=True)
@@ -258,24 +263,27 @@ def _yaw_scores_kernel(lk, rk, l1, r1, channels, xyz, moved, offsets, k, window,
                        out):  # fmt: skip  # pragma: no cover - compiled
     """:func:`yaw_scores_numpy`'s sums; ``moved``: the points after the odometry increment
     (before the extra yaw), all comparable; images as (H, W·C) uint8 rows."""
-    stride = lk.shape[1]
-    size = lk.size
+    focal, cx, cy, half_b, mount_x, mount_h = k[0], k[1], k[2], k[3], k[4], k[5]
     h = window // 2
     n = window * window
+    size = n * channels
     g = guard * n * channels
-    flk, frk, fl1, fr1 = lk.reshape(size), rk.reshape(size), l1.reshape(size), r1.reshape(size)
-    scratch = np.empty((2, window * channels), dtype=np.int32)
-    masks = lane_masks(window, channels, 0)
     m = xyz.shape[0]
-    first_l = np.empty(m, dtype=np.int64)
-    first_r = np.empty(m, dtype=np.int64)
+    left_k = np.empty((m, size))
+    right_k = np.empty((m, size))
     weight = np.empty(m)
+    centre = (h * window + h) * channels
     for i in range(m):
-        row, cl, cr = _project_rounded(xyz[i, 0], xyz[i, 1], xyz[i, 2], k)
-        first_l[i] = (row - h) * stride + (cl - h) * channels
-        first_r[i] = (row - h) * stride + (cr - h) * channels
-        centre = first_l[i] + h * stride + h * channels
-        weight[i] = math.sqrt(math.sqrt(float(_sobel_norm2(flk, centre, stride, channels, 0))))
+        depth = xyz[i, 0] - mount_x
+        v = cy - focal * (xyz[i, 2] - mount_h) / depth
+        _sample(lk, channels, cx - focal * (xyz[i, 1] - half_b) / depth, v, h, left_k[i])
+        _sample(rk, channels, cx - focal * (xyz[i, 1] + half_b) / depth, v, h, right_k[i])
+        grad2 = 0.0
+        for ch in range(channels):
+            gx = left_k[i, centre + channels + ch] - left_k[i, centre - channels + ch]
+            grad2 += gx * gx
+        weight[i] = math.sqrt(math.sqrt(grad2))
+    sample = np.empty(size)
     for j in range(offsets.shape[0]):
         # the robot turned by offsets[j] more sees a world point p at R(-offsets[j]) p
         c, s = math.cos(offsets[j]), math.sin(offsets[j])
@@ -283,11 +291,12 @@ def _yaw_scores_kernel(lk, rk, l1, r1, channels, xyz, moved, offsets, k, window,
         for i in range(m):
             x = c * moved[i, 0] + s * moved[i, 1]
             y = -s * moved[i, 0] + c * moved[i, 1]
-            row, cl, cr = _project_rounded(x, y, moved[i, 2], k)
-            bl = (row - h) * stride + (cl - h) * channels
-            br = (row - h) * stride + (cr - h) * channels
-            zl = _n_zssd(flk, fl1, first_l[i], bl, stride, window, channels, masks, scratch) / n
-            zr = _n_zssd(frk, fr1, first_r[i], br, stride, window, channels, masks, scratch) / n
+            depth = x - mount_x
+            v = cy - focal * (moved[i, 2] - mount_h) / depth
+            _sample(l1, channels, cx - focal * (y - half_b) / depth, v, h, sample)
+            zl = _zssd(left_k[i], sample, channels, n)
+            _sample(r1, channels, cx - focal * (y + half_b) / depth, v, h, sample)
+            zr = _zssd(right_k[i], sample, channels, n)
             total += weight[i] * (1.0 / (zl + g) + 1.0 / (zr + g))
         out[j] = total
 
