@@ -97,24 +97,37 @@ ODOM_HISTORY = 16  # odometry readings kept to find the pose at an image's stamp
 
 def pose_at(readings: deque[OdomReading], stamp_ns: int) -> Pose2D:
     """The odometric pose at ``stamp_ns``: linear between the two readings around it (the
-    heading along the shorter way), else the nearest reading kept (the newest for a stamp
-    past the last reading)."""
+    heading along the shorter way); past the newest reading, the newest two's motion carried
+    on for at most one interval between them (records come in stamp order: an image is
+    delivered before the reading after it, up to an odometry period later, 10 mrad of turn
+    at 0.5 rad/s); before the oldest kept, the oldest."""
     newest = readings[-1]
     if stamp_ns >= newest.stamp_ns:
-        return newest.pose
+        if len(readings) < 2 or stamp_ns == newest.stamp_ns:
+            return newest.pose
+        previous = readings[-2]
+        span = newest.stamp_ns - previous.stamp_ns
+        if span <= 0:
+            return newest.pose
+        return _along(
+            previous.pose, newest.pose, 1.0 + min(stamp_ns - newest.stamp_ns, span) / span
+        )
     later = newest
     for earlier in reversed(readings):
         if earlier.stamp_ns <= stamp_ns:
             if later.stamp_ns == earlier.stamp_ns:
                 return earlier.pose
             a = (stamp_ns - earlier.stamp_ns) / (later.stamp_ns - earlier.stamp_ns)
-            p, q = earlier.pose, later.pose
-            turn = wrap_angle(q.theta - p.theta)
-            return Pose2D(
-                p.x + a * (q.x - p.x), p.y + a * (q.y - p.y), wrap_angle(p.theta + a * turn)
-            )
+            return _along(earlier.pose, later.pose, a)
         later = earlier
     return later.pose
+
+
+def _along(p: Pose2D, q: Pose2D, a: float) -> Pose2D:
+    """The pose a fraction ``a`` of the way from p to q (a > 1: beyond q), position and
+    heading (the shorter way) linear."""
+    turn = wrap_angle(q.theta - p.theta)
+    return Pose2D(p.x + a * (q.x - p.x), p.y + a * (q.y - p.y), wrap_angle(p.theta + a * turn))
 
 
 class FlyPipeline:

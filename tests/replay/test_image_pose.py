@@ -22,13 +22,18 @@ def _turning(n: int, rate: float = 0.5) -> deque[OdomReading]:
     )
 
 
-def test_pose_at_interpolates_between_the_readings_around_the_stamp():
+def test_pose_at_interpolates_between_the_readings_around_the_stamp_and_past_the_newest():
     readings = deque(
         [OdomReading(0, Pose2D(0.0, 0.0, 0.0)), OdomReading(20 * MS, Pose2D(0.2, -0.1, 0.4))]
     )
     mid = pose_at(readings, 5 * MS)
     assert (mid.x, mid.y, mid.theta) == pytest.approx((0.05, -0.025, 0.1))
-    assert pose_at(readings, 30 * MS) == readings[-1].pose  # past the newest: the newest
+    # past the newest: the newest two's motion carried on, for one interval at most
+    ahead = pose_at(readings, 30 * MS)
+    assert (ahead.x, ahead.y, ahead.theta) == pytest.approx((0.3, -0.15, 0.6))
+    far = pose_at(readings, 100 * MS)
+    assert (far.x, far.y, far.theta) == pytest.approx((0.4, -0.2, 0.8))
+    assert pose_at(deque(list(readings)[:1]), 30 * MS) == readings[0].pose  # one: itself
     assert pose_at(readings, -5 * MS) == readings[0].pose  # before the oldest kept: the oldest
     # across ±pi the heading goes the short way
     turning = _turning(20)
