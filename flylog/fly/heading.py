@@ -1,21 +1,29 @@
-"""Visual heading: the flies measure how far the odometry's turn between two frames is off.
+"""Visual heading: the flies measure how far the odometry's turn since a keyframe is off.
 
 Odometry integrates wheel turns; its heading error grows with every radian turned (slip) and
-every second driven, and a heading error tilts the whole path that follows. Between two
-stereo pairs k and k+1 the flies fitted to pair k are points of the world: moved by the
-odometry increment they should look, in pair k+1, like the patches they covered in pair k.
-Rotating them by a small extra yaw ε and comparing patches over a scan of ε finds the
-rotation the images agree with; a yaw shifts the image sideways by about focal·ε pixels
-whatever the depth, so flies at a wrong depth do not bias it while the robot turns in place.
+every second driven, and a heading error tilts the whole path that follows. The flies fitted
+to a stereo pair (the keyframe) are points of the world: moved by the odometry since, they
+should look, in a later pair, like the patches they covered in the keyframe. Rotating them
+by a small extra yaw ε and comparing patches over a scan of ε finds the rotation the images
+agree with; a yaw shifts the image sideways by about focal·ε pixels whatever the depth, so
+flies at a wrong depth hardly bias it while the robot turns in place.
 
 The comparison is the fitness formula across time instead of across cameras: for each fly,
-G of pair k's left patch (the horizontal Sobel: a yaw moves the image horizontally) over the
-zero-mean SSD between its pair-k patch and its pair-(k+1) patch, left and right cameras
-summed; the scan's peak (a parabola through its neighbours) is the measured ε.
+G of the keyframe's left patch (the horizontal Sobel: a yaw moves the image horizontally)
+over the zero-mean SSD between its keyframe patch and its patch in the later pair, left and
+right cameras summed; the scan's peak (a parabola through its neighbours) is the measured ε.
 
-That measurement is fused with the odometry's own turn (a one-dimensional Kalman update):
-weights from the odometry's turn-rate noise over the interval and the measurement's spread.
-A robot standing still has no odometric error to correct, and gets none.
+A measurement is made once the robot has driven ``keyframe_distance`` or turned
+``keyframe_turn_deg`` since the keyframe (or ``keyframe_frames`` pairs came); the pair before
+it becomes the next keyframe. Measured one frame apart, each measurement's error (0.12-0.2 px
+on closed-loop runs at 320×240) added up frame after frame to as much as the odometry's own
+error driving straight; against a keyframe 11-38° of turn on the spot back, it is 0.04-0.11
+px, against 0.6-1.3 px of odometric error.
+
+That measurement is fused with the odometry's own turn since the keyframe (a one-dimensional
+Kalman update): weights from the odometry's turn-rate noise over the span and the
+measurement's spread. A robot standing still has no odometric error to correct, and gets
+none.
 
 Two implementations of the scan with identical results: :func:`yaw_scores_numba` and
 :func:`yaw_scores_numpy` (a short gather reference).
@@ -41,29 +49,74 @@ class HeadingConfig:
 
     enabled: bool = param(
         True,
-        help="measure each frame's odometric turn error with the flies and correct the "
+        help="measure the odometry's turn error since a keyframe with the flies and correct the "
         "robot's pose by it (false: odometry alone, as in the paper)",
     )
-    flies: int = param(1000, help="the fittest flies compared between two frames", min=1)
+    flies: int = param(1000, help="the fittest flies compared with a keyframe", min=1)
     min_flies: int = param(
         100, help="fewer valid flies than this: no measurement for that frame", min=1
     )
     span_px: float = param(
-        1.5,
+        3.0,
         help="the extra yaw scanned, ± this many pixels at the image centre (the odometry's "
-        "turn error per frame is 0.3 px sd at 320×240 turning at 0.5 rad/s)",
+        "turn error over a keyframe's span, turning 20° on the spot at 0.5 rad/s, is 0.75 px "
+        "sd at 320×240)",
         unit="px",
         min=0.0,
+    )
+    keyframe_distance: float = param(
+        0.2,
+        help="a measurement compares the pair at hand with the keyframe (the pair after the "
+        "last measurement) once the robot has driven this far since: measured against a "
+        "keyframe, the error of a measurement no longer adds up frame after frame (one frame "
+        "apart it was as large as the odometry's own error driving straight)",
+        unit="m",
+        min=0.0,
+    )
+    keyframe_turn_deg: float = param(
+        20.0,
+        help="... or turned this much since the keyframe (the view must still overlap)",
+        unit="deg",
+        min=0.0,
+        max=90.0,
+    )
+    keyframe_frames: int = param(
+        15, help="... or this many pairs have come since the keyframe", min=1
+    )
+    min_turn_deg: float = param(
+        2.0,
+        help="no measurement (the next keyframe follows) when the robot turned less than "
+        "this since the keyframe: driving straight 0.2 m at 320×240 the odometry's turn error "
+        "(0.26 px sd) is hardly larger than a measurement's (0.14 px), whose bias (+0.02 px) "
+        "adds up; turning, the odometry's error grows with the turn (0.5 px curving, 0.6-1.3 "
+        "px on the spot) and a measurement's does not",
+        unit="deg",
+        min=0.0,
+        max=90.0,
     )
     step_px: float = param(0.25, help="step of the scan", unit="px", min=0.01)
     window: int = param(7, help="side of the compared patches (odd)", unit="px", min=3, max=31)
     guard: float = param(
         1.0, help="added to the zero-mean SSD per pixel and channel", unit="grey level²", min=1e-6
     )
+    max_parallax_px: float = param(
+        0.2,
+        help="flies whose column in the later pair moves more than this when their disparity "
+        "is off by disparity_error_px are not compared: driving, a near fly's image motion "
+        "off the image centre is mostly parallax, and its depth error reads as yaw "
+        "(turning on the spot the cameras move 0.1 m·Δθ: 0.15 px for every fly at 20°, "
+        "0 = compare every fly)",
+        unit="px",
+        min=0.0,
+    )
+    disparity_error_px: float = param(
+        0.5, help="the flies' disparity error assumed by max_parallax_px", unit="px", min=0.0
+    )
     measurement_sd_px: float = param(
-        0.12,
-        help="spread of one frame's measurement (measured on closed-loop corridor and clutter "
-        "runs, 1000 flies: 0.11 px turning in place, 0.14 px driving)",
+        0.15,
+        help="spread of one measurement against the keyframe (measured on closed-loop "
+        "corridor and clutter runs at 320×240, 1000 flies: 0.04-0.11 px turning 11-38° on "
+        "the spot, 0.13-0.25 px driving 0.2-0.3 m)",
         unit="px",
         min=1e-6,
     )
@@ -125,15 +178,24 @@ class HeadingConfig:
         and extra yaw."""
         return 2 * flies * self.scan_size
 
+    def due(self, since: Pose2D, pairs: int) -> bool:
+        """Whether to measure now, ``pairs`` pairs and the motion ``since`` after the
+        keyframe."""
+        return (
+            math.hypot(since.x, since.y) >= self.keyframe_distance
+            or abs(since.theta) >= math.radians(self.keyframe_turn_deg)
+            or pairs >= self.keyframe_frames
+        )
+
     @property
     def max_evaluations(self) -> int:
-        """The most a frame's measurement costs (0 when switched off)."""
+        """The most a measurement costs (0 when switched off)."""
         return self.evaluations(self.flies) if self.enabled else 0
 
 
 @dataclass(frozen=True, slots=True)
 class YawMeasurement:
-    """One frame's measured turn error: ``yaw`` (rad, to add to the odometry's turn) and
+    """One measured turn error: ``yaw`` (rad, to add to the odometry's turn) and
     how many flies measured it; ``yaw`` is None when the scan found no inner peak."""
 
     yaw: float | None
@@ -166,6 +228,24 @@ def comparable_flies(
     ok = _inside(rig, xyz, h)
     for extra in (offsets[0], offsets[-1]):
         ok &= _inside(rig, moved_and_turned(xyz, increment, float(extra)), h)
+    return ok
+
+
+def depth_insensitive(
+    xyz: np.ndarray, increment: Pose2D, rig: StereoRig, disparity_error: float, parallax: float
+) -> np.ndarray:
+    """Mask of the points (base_link at pair k) whose column after ``increment`` moves by at
+    most ``parallax`` px when their disparity at pair k is off by ±``disparity_error`` px
+    (each moved along its ray): where the motion is mostly parallax (driving, a near fly off
+    the image centre), a depth error reads as yaw."""
+    u_left, u_right, v, depth = rig.project(xyz)
+    disparity = u_left - u_right
+    after = rig.project(moved_by_odometry(xyz, increment))[0]
+    ok = depth > 0
+    for error in (-disparity_error, disparity_error):
+        shifted = np.maximum(disparity + error, 1e-6)
+        moved = rig.backproject(u_left, v, rig.focal_px * rig.baseline / shifted)
+        ok &= np.abs(rig.project(moved_by_odometry(moved, increment))[0] - after) <= parallax
     return ok
 
 
@@ -347,12 +427,18 @@ def measure_yaw(
     *,
     use_numba: bool = True,
 ) -> YawMeasurement:
-    """The turn error between pair k (``before``) and pair k+1 (``after``) measured by the
-    points ``xyz`` (the fittest flies first, base_link at pair k) moved by the odometry
-    ``increment``: the first ``config.flies`` of them that stay comparable over the scan."""
+    """The turn error between pair k (``before``, the keyframe) and a later pair (``after``)
+    measured by the points ``xyz`` (the fittest flies first, base_link at pair k) moved by the
+    odometry ``increment``: the first ``config.flies`` of them that stay comparable over the
+    scan."""
     offsets = config.offsets(rig.focal_px)
     points = np.asarray(xyz, dtype=np.float64)
     points = points[comparable_flies(points, increment, rig, offsets, config.window)]
+    if config.max_parallax_px > 0:
+        keep = depth_insensitive(
+            points, increment, rig, config.disparity_error_px, config.max_parallax_px
+        )
+        points = points[keep]
     points = points[: config.flies]
     if len(points) < config.min_flies or len(offsets) < 3:
         return YawMeasurement(None, len(points))

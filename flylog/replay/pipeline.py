@@ -131,6 +131,21 @@ def _along(p: Pose2D, q: Pose2D, a: float) -> Pose2D:
     return Pose2D(p.x + a * (q.x - p.x), p.y + a * (q.y - p.y), wrap_angle(p.theta + a * turn))
 
 
+KEYFRAME_FLIES = 3  # flies kept with a keyframe, per one compared (some leave the view)
+
+
+@dataclass
+class _Keyframe:
+    """The pair the next heading measurement compares with: its flies (base_link there), the
+    robot's pose there, and what came since (pairs, the odometry's heading variance)."""
+
+    pair: StereoPair
+    xyz: np.ndarray
+    pose: Pose2D
+    pairs: int = 0
+    variance: float = 0.0
+
+
 class FlyPipeline:
     """Implements :class:`flylog.replay.clock.Pipeline` over a stereo engine (the FlyEngine or
     the SgbmEngine, :func:`stereo_engine`) and a HarmonicPlanner.
@@ -179,6 +194,7 @@ class FlyPipeline:
         # the visual heading's correction (config.heading): the robot's pose is this ⊕ the
         # odometry's (None: none yet, the odometry's pose as it is)
         self._correction: Pose2D | None = None
+        self._keyframe: _Keyframe | None = None  # what the next heading measurement uses
         # (corrected) odometry at the stamp of the images the population is scored on: the
         # flies are expressed in base_link there (the pose published with them)
         self._engine_pose: Pose2D | None = None
@@ -263,28 +279,39 @@ class FlyPipeline:
 
     def _heading_measured(self, pair: StereoPair, odometry: Pose2D, pose: Pose2D) -> Pose2D:
         """The robot's pose at ``pair`` (``pose``, from ``odometry`` there), its heading
-        corrected by the flies' measurement of the turn since the previous pair fused with
-        the odometry's (config.heading); the correction then applies to all odometry."""
+        corrected, when a measurement is due and the robot turned since the keyframe, by the
+        flies' measurement of the turn since the keyframe fused with the odometry's
+        (config.heading); the correction then applies to all odometry. The pair that was due,
+        with the flies fitted to it, is the next keyframe."""
         cfg, previous = self.config.heading, self._pair
         assert self._engine_pose is not None
         if not cfg.enabled or previous is None:
             return pose
-        increment = relative(self._engine_pose, pose)
-        variance = cfg.odometry_variance(increment, (pair.stamp_ns - previous.stamp_ns) / 1e9)
-        if variance == 0.0:
+        if self._keyframe is None:
+            pop = self.engine.population
+            fittest = np.argsort(-pop.fitness, kind="stable")
+            fittest = fittest[pop.fitness[fittest] > 0][: KEYFRAME_FLIES * cfg.flies]
+            self._keyframe = _Keyframe(previous, pop.xyz[fittest], self._engine_pose)
+        key = self._keyframe
+        key.pairs += 1
+        key.variance += cfg.odometry_variance(
+            relative(self._engine_pose, pose), (pair.stamp_ns - previous.stamp_ns) / 1e9
+        )
+        since = relative(key.pose, pose)
+        if key.variance == 0.0 or not cfg.due(since, key.pairs):
             return pose
-        pop = self.engine.population
-        fittest = np.argsort(-pop.fitness, kind="stable")
-        fittest = fittest[pop.fitness[fittest] > 0]
+        self._keyframe = None
+        if abs(since.theta) < math.radians(cfg.min_turn_deg):
+            return pose
         measured = measure_yaw(
-            (previous.left, previous.right), (pair.left, pair.right), pop.xyz[fittest],
-            increment, self.rig, cfg,
+            (key.pair.left, key.pair.right), (pair.left, pair.right), key.xyz, since,
+            self.rig, cfg,
         )  # fmt: skip
         self._owed_evaluations += cfg.evaluations(measured.flies)
         if measured.yaw is None:
             return pose
         sd = cfg.measurement_sd_px / self.rig.focal_px
-        turn = fused_yaw(measured.yaw, variance, sd, cfg.gate)
+        turn = fused_yaw(measured.yaw, key.variance, sd, cfg.gate)
         pose = Pose2D(pose.x, pose.y, wrap_angle(pose.theta + turn))
         self._correction = compose(pose, inverse(odometry))
         newest = self._odom_history[-1]

@@ -10,6 +10,7 @@ import pytest
 from flylog.fly.heading import (
     HeadingConfig,
     comparable_flies,
+    depth_insensitive,
     fused_yaw,
     measure_yaw,
     scan_peak,
@@ -147,3 +148,30 @@ def test_the_scan_is_symmetric_and_an_even_window_is_refused():
     assert offsets[6] == 0.0
     with pytest.raises(ValueError, match=r"heading\.window must be odd"):
         HeadingConfig(window=6)
+
+
+def test_a_measurement_is_due_after_the_keyframe_distance_turn_or_pairs():
+    cfg = HeadingConfig(keyframe_distance=0.2, keyframe_turn_deg=20.0, keyframe_frames=15)
+    assert not cfg.due(Pose2D(0.19, 0.0, math.radians(19.9)), 14)
+    assert cfg.due(Pose2D(0.12, 0.16, 0.0), 1)  # 0.2 m, whichever way
+    assert cfg.due(Pose2D(0.0, 0.0, -math.radians(20.0)), 1)
+    assert cfg.due(Pose2D(0.0, 0.0, 0.0), 15)
+
+
+def test_turning_on_the_spot_every_fly_is_depth_insensitive_driving_the_near_edges_are_not(
+    corridor,
+):
+    rig, _, _, _, points = corridor
+    # 20° on the spot moves the cameras 0.1 m·0.35 sideways: a 0.5 px disparity error moves
+    # every fly's column by 0.035 · 0.5 / 0.12 = 0.15 px, within 0.2
+    turned = Pose2D(0.0, 0.0, math.radians(20.0))
+    assert depth_insensitive(points, turned, rig, 0.5, 0.2).all()
+    # 0.2 m ahead the column moves from u to cx + (u − cx)·Z/(Z − t): a disparity error δ
+    # (a depth error Z²·δ/(focal·baseline)) moves it by |u − cx|·t·Z²/(Z − t)²·δ/(focal·baseline)
+    # to first order
+    u, _, _, z = rig.project(points)
+    t = 0.2
+    moves = np.abs(u - rig.cx) * t * z**2 / (z - t) ** 2 * 0.5 / (rig.focal_px * rig.baseline)
+    kept = depth_insensitive(points, Pose2D(t, 0.0, 0.0), rig, 0.5, 0.2)
+    assert kept[moves < 0.17].all() and not kept[moves > 0.23].any()
+    assert 0.2 < kept.mean() < 0.8
