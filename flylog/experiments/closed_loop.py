@@ -120,7 +120,8 @@ def run_closed_loop(
     drawn: dict[str, list[_Drawn]] = {
         s: [done[(s, k)][1] for k in range(options.seeds)] for s in SCENES
     }
-    used = _config(options, 0, overrides).planner
+    effective = _config(options, 0, overrides)
+    used, heading = effective.planner, effective.heading
     table = _table(runs, options.seeds)
     figures = _figures(here, scenes, drawn)
     findings = _findings(runs, table)
@@ -134,10 +135,13 @@ def run_closed_loop(
         f"{options.seeds} seeds per scene (0…{options.seeds - 1}): the seed drives the "
         "trajectory and sonar noise and the engine; mean ± standard deviation over seeds",
         "goal reached: the true position within 0.2 m of the goal (metrics.goal_tolerance); "
-        "the planner stops when its ODOMETRIC position is within "
-        f"{used.goal_tolerance:g} m of the goal (planner.goal_tolerance), so the two "
-        "differ by the odometric drift at the end (its own column); collisions: entries of "
-        "the robot's disc into an obstacle's footprint (true trajectory)",
+        "the planner stops when its own position is within "
+        f"{used.goal_tolerance:g} m of the goal (planner.goal_tolerance): the odometry, its "
+        "heading corrected by the flies"
+        + (" ([heading], on)" if heading.enabled else " (the correction is off here)")
+        + ", so the true distance to the goal at the end is about that position's error; "
+        "the odometric drift at the end is how far the odometry alone was off; collisions: "
+        "entries of the robot's disc into an obstacle's footprint (true trajectory)",
         _describe_planner(used, overrides),
     ]
     return finish_experiment(
@@ -279,6 +283,7 @@ def _table(runs: list[dict], seeds: int) -> Table:
                         "path_length_m",
                         "min_clearance_m",
                         "ate_m",
+                        "final_goal_distance_m",
                         "final_drift_m",
                         "precision",
                         "recall",
@@ -296,6 +301,7 @@ def _table(runs: list[dict], seeds: int) -> Table:
         Column("path_length_m", "path length (m)", ".2f"),
         Column("min_clearance_m", "min clearance (m)", ".2f"),
         Column("ate_m", "odometry ATE (m)", ".3f"),
+        Column("final_goal_distance_m", "true distance to the goal at the end (m)", ".3f"),
         Column("final_drift_m", "odometric drift at the end (m)", ".3f"),
         Column("precision", "fly precision"),
         Column("recall", "fly recall"),
