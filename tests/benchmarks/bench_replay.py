@@ -91,6 +91,20 @@ def _speed(out_dir: Path) -> list[dict]:
             "snapshots, all outputs written",
         }
     ]
+    odometry_alone = replace_dotted(REFERENCE, {"heading.enabled": False})
+    plain = replay(log, out_dir / "bench_replay_no_heading.mcap", odometry_alone)
+    figures.append(
+        {
+            "name": "replay as above, the visual heading off ([heading] enabled = false)",
+            "value": plain.wall_seconds,
+            "unit": "s wall",
+            "reference": "the replay above, heading on",
+            "ratio": summary.wall_seconds / plain.wall_seconds,
+            "note": "the heading's measurements cost "
+            f"{summary.wall_seconds - plain.wall_seconds:+.2f} s "
+            f"({summary.log_duration / plain.wall_seconds:.2f}x real time without them)",
+        }
+    )
     command = _command_seconds(log, out_dir / "bench_replay_command.mcap")
     figures.append(
         {
