@@ -37,7 +37,8 @@ def _goal(ctx: click.Context, param: click.Parameter, value: str | None):
     type=click.Path(dir_okay=False, path_type=Path),
     default=None,
     help="TOML file with the whole configuration (top-level options, [engine], [sgbm], "
-    "[planner], [obstacles]); the options below override it. [default: built-in defaults]",
+    "[planner], [obstacles], [heading]); the options below override it. [default: built-in "
+    "defaults]",
 )
 @click.option(
     "--engine",
