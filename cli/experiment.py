@@ -46,7 +46,7 @@ DEFAULT_SEEDS = 5
     default=None,
     metavar="SECONDS",
     help="Simulated time of every log. [default: each experiment's scene durations: turn "
-    "8 s, near-obstacle 5 s, corridor 30 s; the closed loop stops at the goal or after 120 s]",
+    "8 s, near-obstacle 5 s, corridor 30 s; the closed loop stops at the goal or after 180 s]",
 )
 @click.option(
     "--flies",
