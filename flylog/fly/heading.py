@@ -15,7 +15,7 @@ right cameras summed; the scan's peak (a parabola through its neighbours) is the
 
 A measurement is made once the robot has driven ``keyframe_distance`` or turned
 ``keyframe_turn_deg`` since the keyframe (or ``keyframe_frames`` pairs came); the pair before
-it becomes the next keyframe. Measured one frame apart, each measurement's error (0.12-0.2 px
+it becomes the next keyframe. Measured one frame apart, each measurement's error (0.09-0.21 px
 on closed-loop runs at 320×240) added up frame after frame to as much as the odometry's own
 error driving straight; against a keyframe 11-38° of turn on the spot back, it is 0.04-0.11
 px, against 0.6-1.3 px of odometric error.
