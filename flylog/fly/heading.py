@@ -14,8 +14,8 @@ over the zero-mean SSD between its keyframe patch and its patch in the later pai
 right cameras summed; the scan's peak (a parabola through its neighbours) is the measured ε.
 
 A measurement is made once the robot has driven ``keyframe_distance`` or turned
-``keyframe_turn_deg`` since the keyframe (or ``keyframe_frames`` pairs came); the pair before
-it becomes the next keyframe. Measured one frame apart, each measurement's error (0.09-0.21 px
+``keyframe_turn_deg`` since the keyframe (or ``keyframe_frames`` pairs came); that pair
+becomes the next keyframe. Measured one frame apart, each measurement's error (0.09-0.21 px
 on closed-loop runs at 320×240) added up frame after frame to as much as the odometry's own
 error driving straight; against a keyframe 11-38° of turn on the spot back, it is 0.04-0.11
 px, against 0.6-1.3 px of odometric error.
@@ -66,8 +66,8 @@ class HeadingConfig:
     )
     keyframe_distance: float = param(
         0.2,
-        help="a measurement compares the pair at hand with the keyframe (the pair after the "
-        "last measurement) once the robot has driven this far since: measured against a "
+        help="a measurement compares the pair at hand with the keyframe (the pair the last "
+        "measurement was due at) once the robot has driven this far since: measured against a "
         "keyframe, the error of a measurement no longer adds up frame after frame (one frame "
         "apart it was as large as the odometry's own error driving straight)",
         unit="m",
