@@ -211,7 +211,9 @@ def _cell_counts(mask: np.ndarray, cell: int, block: int) -> tuple[np.ndarray, n
     return hits * block * block, pixels * block * block
 
 
-def _per_snapshot(labels: np.ndarray, snapshots: int, classes: int) -> np.ndarray:
+def _per_snapshot(
+    labels: tuple[np.ndarray, np.ndarray], snapshots: int, classes: int
+) -> np.ndarray:
     """(snapshots, classes) counts of (snapshot, class) label pairs; classes ≥ ``classes``
     are dropped (ids beyond the obstacle count are not obstacles of the scene)."""
     s, c = labels
