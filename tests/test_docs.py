@@ -7,13 +7,17 @@ import dataclasses
 import importlib
 import pkgutil
 import re
+import tomllib
 from pathlib import Path
 
 import pytest
 
 import flylog
 from flylog import reference_docs
-from flylog.config import param
+from flylog.config import from_mapping, param
+from flylog.fly.config import Gradient
+from flylog.replay.config import ReplayConfig
+from flylog.scene.load import parse_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
@@ -96,6 +100,23 @@ def test_stale_blocks_are_refilled() -> None:
     assert reference_docs.fill_blocks(filled) == filled
     with pytest.raises(ValueError, match="unknown generated block 'nope'"):
         reference_docs.fill_blocks("<!-- generated: nope -->\n<!-- end generated -->")
+
+
+def toml_blocks(path: Path) -> list[str]:
+    return re.findall(r"```toml\n(.*?)```", path.read_text(encoding="utf-8"), re.S)
+
+
+def test_the_annotated_scene_file_loads() -> None:
+    (block,) = toml_blocks(DOCS / "simulator.md")
+    scene = parse_scene(block, source="docs/simulator.md")
+    assert scene.name == "corridor" and len(scene.obstacles) == 3 + 20
+
+
+def test_the_paper_configuration_loads() -> None:
+    (block,) = toml_blocks(DOCS / "departures.md")
+    config = from_mapping(ReplayConfig, tomllib.loads(block), source="docs/departures.md")
+    assert config.engine.gradient is Gradient.NORM and not config.heading.enabled
+    assert not config.obstacles.uses_distinctness and config.planner.obstacle_weight == 1.0
 
 
 # History and first person belong in commit messages: the docs say what is and why.
