@@ -47,7 +47,12 @@ def _param_classes() -> set[str]:
     for info in pkgutil.walk_packages(flylog.__path__, "flylog."):
         if info.name.startswith("flylog.cli"):
             continue
-        module = importlib.import_module(info.name)
+        try:
+            module = importlib.import_module(info.name)
+        except ModuleNotFoundError as exc:  # an optional dependency (not flylog) is absent
+            if (exc.name or "").startswith("flylog"):
+                raise
+            continue
         for obj in vars(module).values():
             if (
                 isinstance(obj, type)
@@ -117,6 +122,25 @@ def test_the_paper_configuration_loads() -> None:
     config = from_mapping(ReplayConfig, tomllib.loads(block), source="docs/departures.md")
     assert config.engine.gradient is Gradient.NORM and not config.heading.enabled
     assert not config.obstacles.uses_distinctness and config.planner.obstacle_weight == 1.0
+
+
+def _anchors(path: Path) -> set[str]:
+    """GitHub's anchors of a Markdown file's headings."""
+    heads = re.findall(r"^#+ (.*)$", path.read_text(encoding="utf-8"), re.M)
+    return {re.sub(r"[^\w\- ]", "", h.lower()).replace(" ", "-") for h in heads}
+
+
+@pytest.mark.parametrize("path", prose_files(), ids=lambda p: str(p.relative_to(ROOT)))
+def test_links_lead_somewhere(path: Path) -> None:
+    text = path.read_text(encoding="utf-8")
+    for target in re.findall(r"\]\(([^)\s]+)\)", text):
+        if "://" in target:
+            continue
+        file, _, anchor = target.partition("#")
+        dest = (path.parent / file).resolve() if file else path
+        assert dest.exists(), f"{path.relative_to(ROOT)}: {target} does not exist"
+        if anchor and dest.suffix == ".md":
+            assert anchor in _anchors(dest), f"{path.relative_to(ROOT)}: no heading #{anchor}"
 
 
 # History and first person belong in commit messages: the docs say what is and why.
