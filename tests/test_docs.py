@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 import flylog
-from flylog import reference_docs
+from flylog import config_reference, reference_docs
 from flylog.config import from_mapping, param
 from flylog.fly.config import Gradient
 from flylog.replay.config import ReplayConfig
@@ -60,18 +60,18 @@ def _param_classes() -> set[str]:
                 and dataclasses.is_dataclass(obj)
                 and any("help" in f.metadata for f in dataclasses.fields(obj))
             ):
-                found.add(reference_docs.qualified_name(obj))
+                found.add(config_reference.qualified_name(obj))
     return found
 
 
 def test_every_config_class_is_documented() -> None:
-    documented = reference_docs.config_classes()
-    missing = _param_classes() - documented - set(reference_docs.OPTIONS_ONLY)
+    documented = config_reference.config_classes()
+    missing = _param_classes() - documented - set(config_reference.OPTIONS_ONLY)
     assert not missing, (
-        f"{sorted(missing)} use param but no file in flylog.reference_docs.config_files() loads "
+        f"{sorted(missing)} use param but no file in flylog.config_reference.config_files() loads "
         "them: add the file they are read from, or list them in OPTIONS_ONLY"
     )
-    assert not set(reference_docs.OPTIONS_ONLY) & documented
+    assert not set(config_reference.OPTIONS_ONLY) & documented
 
 
 @dataclasses.dataclass(frozen=True)
@@ -86,13 +86,13 @@ class Outer:
 
 
 def test_a_new_field_appears_in_the_table() -> None:
-    tables = list(reference_docs.walk_tables(Outer, None))
+    tables = list(config_reference.walk_tables(Outer, None))
     assert [(t.path, t.form) for t in tables] == [
         ("", "table"),
         ("inner", "table"),
         ("items", "array of tables"),
     ]
-    depth = reference_docs.Key("depth", "float", "4.0", "m", "0 … 9", "how deep")
+    depth = config_reference.Key("depth", "float", "4.0", "m", "0 … 9", "how deep")
     assert tables[1].keys == (depth,)
     assert tables[2].keys[0].default == "2.5"
 
