@@ -122,6 +122,7 @@ def test_the_paper_configuration_loads() -> None:
     config = from_mapping(ReplayConfig, tomllib.loads(block), source="docs/departures.md")
     assert config.engine.gradient is Gradient.NORM and not config.heading.enabled
     assert not config.obstacles.uses_distinctness and config.planner.obstacle_weight == 1.0
+    assert config.planner.warm_start_sweeps == 0 and config.planner.escape_rise == 0.0
 
 
 def _anchors(path: Path) -> set[str]:
