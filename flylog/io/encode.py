@@ -223,7 +223,7 @@ def point_cloud(
 
 class _Encoded:
     """A Foxglove message encoded here with numpy (messages of hundreds of points or poses,
-    where building one SDK object each cost milliseconds). The writer takes it as it takes
+    where building one SDK object each costs milliseconds). The writer takes it as it takes
     the SDK's messages: ``get_schema()`` on the class, ``encode()``."""
 
     __slots__ = ("_data",)
@@ -253,7 +253,7 @@ def image_annotations(
     """One POINTS annotation: pixel positions (N, 2) with per-point RGBA colours (N, 4).
 
     Encoded here with numpy, byte for byte as the SDK's ``fm.ImageAnnotations(...).encode()``
-    (tests/io/test_encode_bytes.py checks it): building one SDK object per point cost
+    (tests/io/test_encode_bytes.py checks it): building one SDK object per point costs
     ~1.8 ms for a 1000-fly overlay, 5 times a second of log; this takes ~0.1 ms."""
     uv = np.asarray(uv, dtype=float)
     colours = np.asarray(colours, dtype=float)
