@@ -1,4 +1,4 @@
-"""The issue's requirements on the simulator's frames (flylog.sim.render, fixture scenes)."""
+"""What the simulator's frames must satisfy (flylog.sim.render, fixture scenes)."""
 
 import math
 from pathlib import Path
