@@ -2,6 +2,6 @@
 directory) into flylog's sensor records for replay (:mod:`flylog.ros2.source`), and writing
 a flylog log as a rosbag2 directory of standard messages (:mod:`flylog.ros2.export`)."""
 
-from flylog.ros2.bag import is_bag
+from flylog.ros2.detect import is_bag
 
 __all__ = ["is_bag"]

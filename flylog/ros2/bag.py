@@ -19,12 +19,10 @@ from mcap.reader import SeekingReader
 from flylog.errors import LogError
 from flylog.io.reader import open_log
 from flylog.io.records import TopicInfo
+from flylog.ros2.detect import ROS1_MAGIC, ROS2_PROFILE
 from flylog.ros2.types import CdrDecoder
 
-ROS2_PROFILE = "ros2"
 METADATA_FILE = "metadata.yaml"
-ROS1_MAGIC = b"#ROSBAG"
-MCAP_MAGIC = b"\x89MCAP"
 
 
 class BagMessage(NamedTuple):
@@ -34,25 +32,6 @@ class BagMessage(NamedTuple):
     log_time_ns: int
     msgtype: str
     value: Any
-
-
-def is_bag(path: str | os.PathLike[str]) -> bool:
-    """Whether ``path`` is a ROS 2 bag (a rosbag2 directory, or an MCAP file with the
-    ``ros2`` profile) rather than a flylog log; a ROS 1 bag counts (to be refused by name)."""
-    path = Path(path)
-    if path.is_dir():
-        return True
-    try:
-        with path.open("rb") as fh:
-            head = fh.read(len(ROS1_MAGIC))
-            if head == ROS1_MAGIC:
-                return True
-            if not head.startswith(MCAP_MAGIC):
-                return False
-            fh.seek(0)
-            return SeekingReader(fh).get_header().profile == ROS2_PROFILE
-    except Exception:  # unreadable: the flylog reader names the problem
-        return False
 
 
 class Bag:

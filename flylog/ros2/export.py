@@ -12,8 +12,9 @@ storage) of standard messages, written atomically.
 | /tf (base_link → cameras, sonars) | /tf_static, once, transient-local | tf2_msgs/msg/TFMessage |
 | /truth/pose (``--truth``) | /truth/odom | nav_msgs/msg/Odometry |
 
-Every message keeps its log time and its own stamp; the goal of the log's mission goes
-into metadata.yaml's custom_data (``flylog.goal``), so replay finds it as in the log.
+Every message keeps its log time and its own stamp. The goal of the log's mission and its
+scene file go into metadata.yaml's custom_data (``flylog.goal``, ``flylog.scene``), so
+replay finds the goal and metrics the ground truth as in the log.
 """
 
 from __future__ import annotations
@@ -35,7 +36,9 @@ from flylog.io.decode import image as rgb_of
 from flylog.io.decode import stamp_ns
 from flylog.ros2 import types
 from flylog.ros2.messages import TF_STATIC_QOS, Builder, ImageFormat
-from flylog.ros2.source import GOAL_KEY
+from flylog.ros2.source import GOAL_KEY, SCENE_KEY
+
+SCENE_ATTACHMENT = "scene.toml"  # a flylog sensor log's scene file
 
 ODOM_TOPIC = "/odom"
 TRUTH_ODOM = "/truth/odom"
@@ -112,6 +115,9 @@ def export_ros2(
         bag = _Bag(staging / output.name)
         if goal is not None:
             bag.writer.set_custom_data(GOAL_KEY, json.dumps(json.loads(goal)))
+        for attachment in reader.attachments():
+            if attachment.name == SCENE_ATTACHMENT:
+                bag.writer.set_custom_data(SCENE_KEY, attachment.data.decode("utf-8"))
         with bag.writer:
             _Translation(bag, image_format).run(reader, truth, on_progress)
         os.replace(staging / output.name, output)

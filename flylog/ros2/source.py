@@ -36,6 +36,7 @@ from flylog.ros2.topics import Roles, assign_roles, parse_overrides
 
 # custom_data key of a bag's goal (x, y in odom, JSON), as flylog's exporter writes it
 GOAL_KEY = "flylog.goal"
+SCENE_KEY = "flylog.scene"  # the scene file (TOML) of an exported simulation: ground truth
 DEFAULT_FRAME_RATE = 15.0  # Hz, for a bag with a single image
 
 
