@@ -15,8 +15,8 @@ from flylog.errors import LogError
 from flylog.io.reader import open_log
 from flylog.ros2.bag import open_bag
 from flylog.ros2.export import export_ros2
-from tests.ros2 import bags
 from tests.replay.test_replay import CORRIDOR
+from tests.ros2 import bags
 from tests.ros2.bags import BagSpec, make_bag, write_bag
 
 FAST = ["--flies", "64", "--generations-per-frame", "1"]
