@@ -100,7 +100,8 @@ def _goal(ctx: click.Context, param: click.Parameter, value: str | None):
     callback=_goal,
     default=None,
     metavar="X,Y",
-    help="Goal in the odom frame, m. [default: the log's mission metadata]",
+    help="Goal in the odom frame, m. [default: the log's mission metadata; a ROS 2 bag's "
+    "custom_data flylog.goal, else none: the planner off]",
 )
 @click.option(
     "--topic",
