@@ -41,8 +41,9 @@ from flylog.cli.common import progress_bar, reports_errors, stdout
     "--truth",
     is_flag=True,
     default=False,
-    help="--ros2: also write the true pose as nav_msgs/Odometry on /truth/odom (replay never "
-    "reads it; metrics does). [default: off]",
+    help="--ros2: also write the ground truth, the true pose as nav_msgs/Odometry on "
+    "/truth/odom and the scene file in metadata.yaml (replay never reads them; metrics "
+    "does). [default: off]",
 )
 @reports_errors
 def export(

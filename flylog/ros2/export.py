@@ -12,9 +12,9 @@ storage) of standard messages, written atomically.
 | /tf (base_link → cameras, sonars) | /tf_static, once, transient-local | tf2_msgs/msg/TFMessage |
 | /truth/pose (``--truth``) | /truth/odom | nav_msgs/msg/Odometry |
 
-Every message keeps its log time and its own stamp. The goal of the log's mission and its
-scene file go into metadata.yaml's custom_data (``flylog.goal``, ``flylog.scene``), so
-replay finds the goal and metrics the ground truth as in the log.
+Every message keeps its log time and its own stamp. The goal of the log's mission goes
+into metadata.yaml's custom_data (``flylog.goal``), so replay finds it as in the log; with
+``truth``, the scene file too (``flylog.scene``), so metrics finds the ground truth.
 """
 
 from __future__ import annotations
@@ -28,6 +28,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 from mcap_protobuf.decoder import DecoderFactory
 
 from flylog.errors import LogError
@@ -115,7 +116,7 @@ def export_ros2(
         bag = _Bag(staging / output.name)
         if goal is not None:
             bag.writer.set_custom_data(GOAL_KEY, json.dumps(json.loads(goal)))
-        for attachment in reader.attachments():
+        for attachment in reader.attachments() if truth else ():
             if attachment.name == SCENE_ATTACHMENT:
                 bag.writer.set_custom_data(SCENE_KEY, attachment.data.decode("utf-8"))
         with bag.writer:
@@ -191,7 +192,7 @@ class _Translation:
     def _calibration(self, side: str, t: int, msg: Any) -> None:
         message = self.bag.build.camera_info(
             stamp_ns(msg.timestamp), msg.frame_id, (msg.width, msg.height), list(msg.K),
-            list(msg.P), d=list(msg.D) or [0.0] * 5, r=list(msg.R),
+            list(msg.P), d=list(msg.D) or [0.0] * 5, r=list(msg.R) or np.eye(3).ravel(),
             model=msg.distortion_model or "plumb_bob",
         )  # fmt: skip
         self.bag.write(info_topic(side), t, types.CAMERA_INFO, message)

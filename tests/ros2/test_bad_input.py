@@ -160,3 +160,10 @@ def test_export_refuses_an_existing_output_and_leaves_nothing_on_failure(tmp_pat
     (tmp_path / "out").mkdir()
     result = CliRunner().invoke(cli, ["export", str(log), "--ros2", str(tmp_path / "out")])
     assert result.exit_code == 2 and "exists" in result.output
+
+
+def test_metrics_against_a_bag_without_ground_truth_says_what_is_missing(tmp_path):
+    from flylog.ros2.truth import bag_truth
+
+    with pytest.raises(LogError, match=r"lacks /truth/odom \(the true pose\), custom_data "):
+        bag_truth(make_bag(tmp_path / "bag"))

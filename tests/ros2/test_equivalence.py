@@ -118,3 +118,9 @@ def test_tf_static_is_transient_local_in_metadata(exported):
     assert "durability: transient_local" in block and "reliability: reliable" in block
     assert "depth: 1" in block and "history: keep_last" in block
     assert "flylog.goal: '[10.5, 0.0]'" in text
+
+
+def test_without_truth_the_export_holds_no_ground_truth(tmp_path):
+    bag = export_ros2(CORRIDOR, tmp_path / "bag").output
+    assert "flylog.scene" not in (bag / "metadata.yaml").read_text()
+    assert not [t for t in open_log(bag / "bag.mcap").topics() if t.startswith("/truth/")]
