@@ -192,7 +192,7 @@ class _Translation:
     def _calibration(self, side: str, t: int, msg: Any) -> None:
         message = self.bag.build.camera_info(
             stamp_ns(msg.timestamp), msg.frame_id, (msg.width, msg.height), list(msg.K),
-            list(msg.P), d=list(msg.D) or [0.0] * 5, r=list(msg.R) or np.eye(3).ravel(),
+            list(msg.P), d=list(msg.D) or [0.0] * 5, r=list(msg.R) or np.eye(3).ravel().tolist(),
             model=msg.distortion_model or "plumb_bob",
         )  # fmt: skip
         self.bag.write(info_topic(side), t, types.CAMERA_INFO, message)
