@@ -53,9 +53,10 @@ def _fmt(value: Any) -> str:
 @click.option(
     "--log",
     "log",
-    type=click.Path(dir_okay=False, path_type=Path),
+    type=click.Path(path_type=Path),
     default=None,
-    help="The sensor log the run was made from (ground truth). [default: RUN itself, "
+    help="The sensor log the run was made from (ground truth): a flylog log, or a ROS 2 bag "
+    "with /truth/odom and its scene (`flylog export --ros2 --truth`). [default: RUN itself, "
     "for a closed-loop log]",
 )
 @click.option(

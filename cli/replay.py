@@ -22,7 +22,7 @@ def _goal(ctx: click.Context, param: click.Parameter, value: str | None):
 
 
 @click.command()
-@click.argument("log", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("log", type=click.Path(path_type=Path))
 @click.option(
     "-o",
     "--output",
@@ -100,7 +100,33 @@ def _goal(ctx: click.Context, param: click.Parameter, value: str | None):
     callback=_goal,
     default=None,
     metavar="X,Y",
-    help="Goal in the odom frame, m. [default: the log's mission metadata]",
+    help="Goal in the odom frame, m. [default: the log's mission metadata; a ROS 2 bag's "
+    "custom_data flylog.goal, else none: the planner off]",
+)
+@click.option(
+    "--topic",
+    "topics",
+    multiple=True,
+    metavar="ROLE=TOPIC",
+    help="ROS 2 bags: the topic of a role, overriding the discovery (left, right: image "
+    "topics with a camera_info beside them; odom: an Odometry topic or /tf; sonar=/r0,/r1: "
+    "the Range topics of the ring); repeatable. [default: found by type and name]",
+)
+@click.option(
+    "--pair-tolerance",
+    type=click.FloatRange(0.0, 1.0),
+    default=None,
+    metavar="PERIODS",
+    help="ROS 2 bags: left and right images pair by nearest stamp when at most this many "
+    "frame periods apart; unpaired images are dropped and counted. [default: 0.5]",
+)
+@click.option(
+    "--sonar-window",
+    type=click.FloatRange(min=0.0),
+    default=None,
+    metavar="S",
+    help="ROS 2 bags: Range readings within this time of a cycle's first form one sonar "
+    "cycle. [default: 0.05 s]",
 )
 @reports_errors
 def replay(
@@ -115,13 +141,18 @@ def replay(
     sync: bool | None,
     snapshot_rate: float | None,
     goal: tuple[float, float] | None,
+    topics: tuple[str, ...],
+    pair_tolerance: float | None,
+    sonar_window: float | None,
 ) -> None:
-    """Replay LOG (an MCAP log from `flylog simulate`) through the fly engine (or the SGBM
-    baseline) and the harmonic-function planner on a deterministic virtual clock. Never
-    reads /truth/."""
+    """Replay LOG (an MCAP log from `flylog simulate`, or a ROS 2 bag: a ros2-profile .mcap
+    file or a rosbag2 directory) through the fly engine (or the SGBM baseline) and the
+    harmonic-function planner on a deterministic virtual clock. Never reads /truth/. A bag
+    without a goal and no --goal replays the engine only, the planner off."""
     from flylog.config import replace_dotted
     from flylog.replay.config import ReplayConfig, Stereo, load_replay_config
     from flylog.replay.run import replay as run_replay
+    from flylog.ros2.config import BagOptions
 
     freeze_imported_objects()
 
@@ -140,8 +171,12 @@ def replay(
         config = replace_dotted(config, overrides)
     except ValueError as exc:  # a cross-field check, e.g. sgbm with several generations
         raise click.UsageError(str(exc)) from None
+    bag = replace_dotted(
+        BagOptions(),
+        {"topics": topics or None, "pair_tolerance": pair_tolerance, "sonar_window": sonar_window},
+    )
     with progress_bar(f"replay {log.name}", unit="s") as update:
-        summary = run_replay(log, output, config, goal=goal, on_progress=update)
+        summary = run_replay(log, output, config, goal=goal, bag=bag, on_progress=update)
     speed = summary.log_duration / summary.wall_seconds
     if summary.stereo == Stereo.SGBM.value:
         work = f"{summary.generations} frames matched by SGBM"
@@ -151,6 +186,7 @@ def replay(
         f"{summary.output} and {summary.table.name}: {summary.log_duration:g} s of log "
         f"replayed in {summary.wall_seconds:.1f} s ({speed:.1f}× real time), "
         f"{summary.frames} frames, {work}, {summary.snapshots} snapshots, "
-        f"planner {summary.status}",
+        f"planner {summary.status}"
+        + (f", {summary.unpaired} unpaired images dropped" if summary.unpaired else ""),
         soft_wrap=True,
     )

@@ -25,6 +25,7 @@ from flylog.geometry import StereoRig
 from flylog.io import contract, open_log, require_topics
 from flylog.io.reader import LogReader
 from flylog.metrics.trajectory import Trajectory, trajectory
+from flylog.ros2.detect import is_bag
 from flylog.scene.load import Scene, parse_scene
 
 SCENE_ATTACHMENT = "scene.toml"
@@ -149,7 +150,12 @@ def recorded_trajectories(reader: LogReader) -> dict[str, Trajectory] | None:
 
 
 def read_truth(path: str | Path) -> LogTruth:
-    """Scene, rig and trajectories of a sensor log (LogError naming what is missing)."""
+    """Scene, rig and trajectories of a sensor log or a ROS 2 bag (LogError naming what
+    is missing)."""
+    if is_bag(path):
+        from flylog.ros2.truth import bag_truth
+
+        return bag_truth(path)
     reader = open_log(path)
     require_topics(reader, [contract.TRUTH_POSE, contract.ODOM])
     scene = read_scene(reader)

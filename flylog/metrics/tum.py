@@ -22,6 +22,7 @@ from flylog.errors import LogError
 from flylog.io import contract, open_log
 from flylog.metrics.trajectory import Trajectory, trajectory
 from flylog.metrics.truth import read_odom_tf, read_poses, recorded_trajectories
+from flylog.ros2.detect import is_bag
 
 
 def tum_line(t_ns: int, x: float, y: float, theta: float) -> str:
@@ -59,7 +60,11 @@ def planned_trajectory(path: str | Path) -> Trajectory:
 
 
 def log_trajectories(path: str | Path) -> dict[str, Trajectory]:
-    """name (true, odom, planned) → trajectory, for those the file holds."""
+    """name (true, odom, planned) → trajectory, for those the file (or ROS 2 bag) holds."""
+    if is_bag(path):
+        from flylog.ros2.truth import bag_trajectories
+
+        return bag_trajectories(path)
     reader = open_log(path)
     present = reader.topics()
     out: dict[str, Trajectory] = {}

@@ -11,14 +11,19 @@ from pathlib import Path
 from flylog.config import to_mapping
 from flylog.errors import LogError
 from flylog.io import contract
-from flylog.io.pairing import pair_stereo
-from flylog.io.reader import open_log
 from flylog.io.tables import Column, TableWriter
 from flylog.io.writer import Compression, LogWriter
 from flylog.replay.clock import ClockConfig, VirtualClock
 from flylog.replay.config import ReplayConfig
-from flylog.replay.inputs import SENSOR_TOPICS, replay_inputs
 from flylog.replay.pipeline import PLANNER_TICK, SNAPSHOT_TICK, FlyPipeline
+from flylog.replay.source import (
+    PLANNER_OFF,
+    READ_AHEAD_MESSAGES,
+    open_source,
+    planner_off_row,
+    planner_off_write,
+)
+from flylog.ros2.config import BagOptions
 
 # The run log is written uncompressed: its bulk is float32 potentials and fly clouds, which
 # lz4 shrinks by 13 % only (98 → 85 MB on the 60 s reference run) for 0.3 s of the replay's
@@ -27,9 +32,7 @@ RUN_COMPRESSION = Compression.NONE
 # Progress is reported at most this often, in log time (the log has ~90 messages a second).
 PROGRESS_STEP_NS = 100_000_000
 
-# Messages decoded ahead of the replay by a reading thread: about ten frames of stereo pairs
-# (≈ 20 MB at 640×480), enough to hide a chunk's decompression behind the engine's work.
-READ_AHEAD_MESSAGES = 64
+__all__ = ["READ_AHEAD_MESSAGES", "ReplaySummary", "clock_config", "replay", "table_path"]
 
 # pyarrow type names: pyarrow is imported with the first row (flylog.io.tables)
 _F, _I, _S = "float64", "int64", "string"
@@ -65,8 +68,9 @@ class ReplaySummary:
     generations: int
     evaluations: int
     snapshots: int
-    status: str  # the planner's last status
+    status: str  # the planner's last status ("off" without a goal)
     stereo: str  # the engine: flies or sgbm
+    unpaired: int = 0  # images dropped for want of a partner (ROS 2 bags)
 
 
 def table_path(output: Path) -> Path:
@@ -101,18 +105,20 @@ def replay(
     config: ReplayConfig,
     *,
     goal: tuple[float, float] | None = None,
+    bag: BagOptions | None = None,
     on_progress: Callable[[float, float], None] | None = None,
 ) -> ReplaySummary:
-    """Replay ``log`` and write ``output`` (MCAP) and its per-step table (Parquet), both
-    atomically: after a failure neither exists. ``on_progress(done_s, total_s)`` in log time.
-    """
+    """Replay ``log`` (a flylog log or a ROS 2 bag, read with ``bag``'s options) and write
+    ``output`` (MCAP) and its per-step table (Parquet), both atomically: after a failure
+    neither exists. ``on_progress(done_s, total_s)`` in log time. Without a goal (a bag
+    without one, and no ``goal``), the planner's outputs are not written."""
     t0 = time.perf_counter()
     table = table_path(output)
     if table == Path(log) or output == Path(log):
         msg = f"replay would overwrite its input {log}: choose another --output"
         raise LogError(msg)
-    reader = open_log(log)
-    inputs = replay_inputs(reader, goal=goal)
+    source = open_source(Path(log), goal=goal, bag=bag)
+    inputs = source.inputs
     duration = (inputs.end_ns - inputs.start_ns) / 1e9
     existed = table.exists()
     try:
@@ -125,15 +131,14 @@ def replay(
                 inputs.rig,
                 inputs.start,
                 inputs.goal,
-                out.write,
-                on_row=rows.append,
+                out.write if source.planner else planner_off_write(out.write),
+                on_row=rows.append if source.planner else planner_off_row(rows.append),
                 planner_thread=True,
             )
             try:
                 clock = VirtualClock(pipeline, clock_config(config, inputs.frame_period_ns))
-                messages = reader.messages(SENSOR_TOPICS, read_ahead=READ_AHEAD_MESSAGES)
                 reported_ns = inputs.start_ns
-                for message in pair_stereo(messages):
+                for message in source.records:
                     clock.feed(message.value)
                     if on_progress is not None and message.log_time_ns >= reported_ns:
                         on_progress((message.log_time_ns - inputs.start_ns) / 1e9, duration)
@@ -150,7 +155,7 @@ def replay(
                 {
                     "config": json.dumps(to_mapping(config)),
                     "log": str(log),
-                    "goal": json.dumps(list(inputs.goal)),
+                    "goal": json.dumps(list(inputs.goal) if source.planner else None),
                     "generations": str(stats.generations),
                     "evaluations": str(stats.evaluations),
                     "frames": str(stats.frames),
@@ -171,6 +176,7 @@ def replay(
         generations=stats.generations,
         evaluations=stats.evaluations,
         snapshots=pipeline.snapshots,
-        status=pipeline.command.status.value,
+        status=pipeline.command.status.value if source.planner else PLANNER_OFF,
         stereo=config.stereo.value,
+        unpaired=source.unpaired,
     )

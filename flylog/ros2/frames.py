@@ -1,0 +1,94 @@
+"""Transforms from ``tf2_msgs/msg/TFMessage``: the static tree (``/tf_static``) looked up
+from base_link, quaternions, stamps and planar poses."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from flylog.geometry import Pose2D
+from flylog.io.decode import yaw_of
+
+BASE_FRAME = "base_link"
+ODOM_FRAME = "odom"
+
+
+def stamp_ns(header: Any) -> int:
+    """Integer nanoseconds of a std_msgs/Header's stamp."""
+    return int(header.stamp.sec) * 1_000_000_000 + int(header.stamp.nanosec)
+
+
+def frame_name(frame_id: str) -> str:
+    """A frame id without the leading slash some ROS 1 converted bags keep."""
+    return str(frame_id).lstrip("/")
+
+
+def rotation_matrix(q: Any) -> np.ndarray:
+    """3×3 rotation of a geometry_msgs/Quaternion (normalised first)."""
+    x, y, z, w = float(q.x), float(q.y), float(q.z), float(q.w)
+    n = math.sqrt(x * x + y * y + z * z + w * w)
+    if n == 0.0:
+        return np.eye(3)
+    x, y, z, w = x / n, y / n, z / n, w / n
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def tilt(rotation: np.ndarray) -> float:
+    """How far (rad) a body's z axis leans from the vertical: roll and pitch together."""
+    return math.acos(max(-1.0, min(1.0, float(rotation[2, 2]))))
+
+
+def planar(position: Any, orientation: Any) -> Pose2D:
+    """A pose projected on the ground plane: x, y and the heading of its x axis projected
+    on the ground (the quaternion's yaw, computed as flylog's decoder does, so a pose
+    exported from a flylog log reads back bit for bit)."""
+    return Pose2D(float(position.x), float(position.y), yaw_of(orientation))
+
+
+class StaticTree:
+    """The static transforms of a bag: child frame → (parent, translation, rotation)."""
+
+    def __init__(self) -> None:
+        self._parent: dict[str, tuple[str, np.ndarray, np.ndarray]] = {}
+
+    def add(self, message: Any) -> None:
+        """Add every transform of a TFMessage (a later one for the same child wins)."""
+        for t in message.transforms:
+            tr = t.transform.translation
+            self._parent[frame_name(t.child_frame_id)] = (
+                frame_name(t.header.frame_id),
+                np.array([tr.x, tr.y, tr.z], dtype=float),
+                rotation_matrix(t.transform.rotation),
+            )
+
+    def in_base(self, frame: str) -> tuple[np.ndarray, np.ndarray] | None:
+        """(position (3,), axes (3, 3)) of ``frame`` in base_link, or None if the static
+        tree does not connect them."""
+        frame = frame_name(frame)
+        position, axes = np.zeros(3), np.eye(3)
+        seen: set[str] = set()
+        while frame != BASE_FRAME:
+            if frame in seen or frame not in self._parent:
+                return None
+            seen.add(frame)
+            parent, translation, rotation = self._parent[frame]
+            position = rotation @ position + translation
+            axes = rotation @ axes
+            frame = parent
+        return position, axes
+
+    def mount(self, frame: str) -> tuple[float, float, float] | None:
+        """(x, y, yaw) of ``frame`` in base_link, yaw the heading of its x axis."""
+        found = self.in_base(frame)
+        if found is None:
+            return None
+        position, axes = found
+        return float(position[0]), float(position[1]), math.atan2(axes[1, 0], axes[0, 0])
