@@ -6,19 +6,8 @@ from pathlib import Path
 
 import click
 
-from flylog.cli.common import progress_bar, reports_errors, stdout
+from flylog.cli.common import Finite, limit_options, point, progress_bar, reports_errors, stdout
 from flylog.cli.main import freeze_imported_objects
-
-
-def _goal(ctx: click.Context, param: click.Parameter, value: str | None):
-    if value is None:
-        return None
-    try:
-        x, y = (float(p) for p in value.split(","))
-    except ValueError:
-        msg = f"expected X,Y in metres, e.g. 10,0.5, got {value!r}"
-        raise click.BadParameter(msg) from None
-    return (x, y)
 
 
 @click.command()
@@ -74,7 +63,7 @@ def _goal(ctx: click.Context, param: click.Parameter, value: str | None):
 )
 @click.option(
     "--evals-per-second",
-    type=click.FloatRange(min=1.0),
+    type=Finite(min=1.0),
     default=None,
     metavar="X",
     help="Virtual compute budget in fitness evaluations per second: each generation costs "
@@ -90,18 +79,20 @@ def _goal(ctx: click.Context, param: click.Parameter, value: str | None):
 )
 @click.option(
     "--snapshot-rate",
-    type=click.FloatRange(min=0.01),
+    type=Finite(min=0.01),
     default=None,
     metavar="HZ",
-    help="How often flies, potential and path are written. [default: 5 Hz]",
+    help="How often flies, potential and path are written, at most 10 times the log's "
+    "camera frame rate. [default: 5 Hz]",
 )
 @click.option(
     "--goal",
-    callback=_goal,
+    callback=point,
     default=None,
     metavar="X,Y",
     help="Goal in the odom frame, m. [default: the log's mission metadata]",
 )
+@limit_options
 @reports_errors
 def replay(
     log: Path,
@@ -115,15 +106,28 @@ def replay(
     sync: bool | None,
     snapshot_rate: float | None,
     goal: tuple[float, float] | None,
+    max_output_size: int,
+    max_memory: int,
 ) -> None:
     """Replay LOG (an MCAP log from `flylog simulate`) through the fly engine (or the SGBM
     baseline) and the harmonic-function planner on a deterministic virtual clock. Never
-    reads /truth/."""
+    reads /truth/.
+
+    A job whose estimated output or peak memory is over --max-output-size or --max-memory
+    is refused before it starts, with the estimate."""
+    from flylog.budget import Limits
     from flylog.config import replace_dotted
+    from flylog.io.collisions import Role, check_outputs
     from flylog.replay.config import ReplayConfig, Stereo, load_replay_config
     from flylog.replay.run import replay as run_replay
+    from flylog.replay.run import table_path
 
     freeze_imported_objects()
+    check_outputs(
+        [Role(log, "the sensor log", "log")]
+        + ([Role(config_file, "the configuration", "config_file")] if config_file else []),
+        [Role(output, "the run", "output"), Role(table_path(output), "the step table", "output")],
+    )
 
     config = load_replay_config(config_file) if config_file else ReplayConfig()
     overrides = {
@@ -141,7 +145,14 @@ def replay(
     except ValueError as exc:  # a cross-field check, e.g. sgbm with several generations
         raise click.UsageError(str(exc)) from None
     with progress_bar(f"replay {log.name}", unit="s") as update:
-        summary = run_replay(log, output, config, goal=goal, on_progress=update)
+        summary = run_replay(
+            log,
+            output,
+            config,
+            goal=goal,
+            on_progress=update,
+            limits=Limits(max_output_size=max_output_size, max_memory=max_memory),
+        )
     speed = summary.log_duration / summary.wall_seconds
     if summary.stereo == Stereo.SGBM.value:
         work = f"{summary.generations} frames matched by SGBM"

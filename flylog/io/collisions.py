@@ -1,4 +1,5 @@
-"""Refuse an output that would overwrite one of the job's inputs or another of its outputs.
+"""Refuse, before a job starts, an output that would overwrite one of its inputs or another
+of its outputs, or whose directory is not writable.
 
 Two paths name the same file when the file exists and ``os.path.samefile`` says so (it
 follows symbolic links and sees hard links), or when their resolved paths (symbolic links
@@ -33,11 +34,17 @@ def same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> bool:
         return os.path.realpath(a) == os.path.realpath(b)
 
 
-def check_distinct(inputs: Iterable[Role], outputs: Iterable[Role]) -> None:
-    """Raise OutputError if an output is an input or another output, naming both files;
-    its ``parameter`` is the colliding output's."""
+def check_outputs(inputs: Iterable[Role], outputs: Iterable[Role]) -> None:
+    """Raise OutputError if an output is an input or another output (naming both files),
+    or if its directory exists but cannot be written to; ``parameter`` is the output's.
+
+    A missing directory is left to the writer (``flylog export`` creates its own)."""
     inputs, outputs = list(inputs), list(outputs)
     for i, out in enumerate(outputs):
+        directory = Path(out.path).parent
+        if directory.is_dir() and not os.access(directory, os.W_OK | os.X_OK):
+            msg = f"cannot write {out.what} {out.path}: directory {directory} is not writable"
+            raise OutputError(msg, parameter=out.parameter)
         for inp in inputs:
             if same_file(out.path, inp.path):
                 msg = (
