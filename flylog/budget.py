@@ -33,8 +33,10 @@ SIMULATION_BYTES_PER_PIXEL = 24
 EVENT_BYTES = 130
 POSE_STEP_BYTES = 200
 # A log's messages besides the images (odometry, sonar, transforms, calibrations, the
-# scene): 56 kB/s in an uncompressed 640x480 log of turn.toml (112 kB in 2 s).
+# scene) and its fixed part (the scene attachment, metadata, summary): uncompressed logs of
+# turn.toml held 112 kB besides the images in 2 s at 640x480, 46 kB in 0.5 s at 64x48.
 OTHER_LOG_BYTES_PER_S = 64_000
+LOG_FIXED_BYTES = 32 * 1024
 # A replay snapshot: the potential as float32 (4 B a cell), each fly as 24 B (the /flies
 # point cloud), each overlay fly as 48 B of annotation, the path as up to 100 B per cell of
 # the grid's side; measured on turn.mcap: 160 100 B for 200 x 200 cells, 120 124 B for
@@ -102,7 +104,7 @@ def simulation_estimate(
     turn.toml at 640x480), every event scheduled at the start."""
     frames = duration * rig.frame_rate + 1
     pixels = rig.width * rig.height
-    output = frames * 2 * pixels * 3 + duration * OTHER_LOG_BYTES_PER_S
+    output = frames * 2 * pixels * 3 + duration * OTHER_LOG_BYTES_PER_S + LOG_FIXED_BYTES
     events = duration * (rig.frame_rate + sonar_rate + odometry_rate + 1)
     memory = (
         PROGRAM_BYTES
