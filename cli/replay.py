@@ -63,7 +63,7 @@ from flylog.cli.main import freeze_imported_objects
 )
 @click.option(
     "--evals-per-second",
-    type=Finite(min=1.0),
+    type=Finite(min=1.0, max=1e9),
     default=None,
     metavar="X",
     help="Virtual compute budget in fitness evaluations per second: each generation costs "
