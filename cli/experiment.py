@@ -50,7 +50,7 @@ DEFAULT_SEEDS = 5
 )
 @click.option(
     "--flies",
-    type=click.IntRange(min=16),
+    type=click.IntRange(min=16, max=10_000_000),
     default=None,
     metavar="N",
     help="Population size. [default: the engine's, 5000]",

@@ -48,14 +48,14 @@ from flylog.cli.main import freeze_imported_objects
 )
 @click.option(
     "--flies",
-    type=click.IntRange(min=16),
+    type=click.IntRange(min=16, max=10_000_000),
     default=None,
     metavar="N",
     help="Population size. [default: 5000]",
 )
 @click.option(
     "--generations-per-frame",
-    type=click.IntRange(min=0),
+    type=click.IntRange(min=0, max=10_000),
     default=None,
     metavar="N",
     help="Run exactly N generations per stereo pair (the paper's experiments use 1); 0 runs "

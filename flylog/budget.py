@@ -45,14 +45,16 @@ POTENTIAL_BYTES_PER_CELL = 4
 FLY_BYTES = 24
 OVERLAY_FLY_BYTES = 48
 PATH_BYTES_PER_SIDE_CELL = 100
-# Replay memory: the planner's grids (masks, counters, obstacle values, the relaxation's
-# halves, the snapshots' copies) per cell: peak RSS 453 MiB with planner.extent = 20 m
-# (200 x 200 cells), 879 MiB with 200 m (2000 x 2000) on turn.mcap, i.e. 113 B a cell; the
-# rest of the 453 MiB, less about twelve stereo pairs read ahead (READ_AHEAD_MESSAGES of
-# flylog.replay.run, 3 B/px), is the program's.
-PLANNER_BYTES_PER_CELL = 120
+# Replay memory (peak RSS on turn.mcap): 453 MiB at the defaults with numba compiling its
+# kernels, 260 MiB with them cached; 879 MiB with planner.extent = 200 m (2000 x 2000 cells
+# instead of 200 x 200: the planner's masks, counters, obstacle values, the relaxation's
+# halves, the snapshots' copies), i.e. 160 B a cell; 535 MiB with 400 000 flies instead of
+# 5000, i.e. 730 B a fly (population, scores, operators' work arrays). About twelve stereo
+# pairs are read ahead (READ_AHEAD_MESSAGES of flylog.replay.run, 3 B/px).
+PLANNER_BYTES_PER_CELL = 160
+FLY_MEMORY_BYTES = 750
 READ_AHEAD_PAIRS = 12
-REPLAY_PROGRAM_BYTES = 430 * 2**20
+REPLAY_PROGRAM_BYTES = 453 * 2**20
 
 
 @dataclass(frozen=True)
@@ -129,6 +131,7 @@ def replay_estimate(config: ReplayConfig, rig: StereoRig, duration: float) -> Es
     memory = (
         REPLAY_PROGRAM_BYTES
         + PLANNER_BYTES_PER_CELL * side * side
+        + FLY_MEMORY_BYTES * config.engine.flies
         + READ_AHEAD_PAIRS * 2 * rig.width * rig.height * 3
     )
     return Estimate(f"a replay of {duration:g} s", snapshots * per_snapshot, memory)

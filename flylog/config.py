@@ -225,8 +225,11 @@ def to_mapping(obj: Any) -> Any:
     return obj
 
 
-def replace_dotted(obj: T, overrides: Mapping[str, Any]) -> T:
-    """Return ``obj`` with ``{"engine.flies": 5000}``-style overrides applied (no None)."""
+def replace_dotted(obj: T, overrides: Mapping[str, Any], *, _prefix: str = "") -> T:
+    """Return ``obj`` with ``{"engine.flies": 5000}``-style overrides applied (no None).
+
+    Each value is checked as a file's would be (finite, inside the field's range):
+    ConfigError naming the dotted field, with ``parameter`` the dotted name."""
     for dotted, value in overrides.items():
         if value is None:
             continue
@@ -234,8 +237,20 @@ def replace_dotted(obj: T, overrides: Mapping[str, Any]) -> T:
         if rest:
             obj = dataclasses.replace(
                 obj,  # type: ignore[type-var]
-                **{head: replace_dotted(getattr(obj, head), {rest: value})},
+                **{
+                    head: replace_dotted(
+                        getattr(obj, head), {rest: value}, _prefix=f"{_prefix}{head}."
+                    )
+                },
             )
-        else:
-            obj = dataclasses.replace(obj, **{head: value})  # type: ignore[type-var]
+            continue
+        where = _prefix + head
+        field = {f.name: f for f in dataclasses.fields(obj)}[head]  # type: ignore[arg-type]
+        if isinstance(value, float) and not math.isfinite(value):
+            msg = f"'{where}' must be a finite number, got {value!r}"
+            raise ConfigError(msg, parameter=where)
+        wrong = _out_of_range(field, value, value, where)
+        if wrong is not None:
+            raise ConfigError(wrong.replace("field ", "", 1), parameter=where)
+        obj = dataclasses.replace(obj, **{head: value})  # type: ignore[type-var]
     return obj

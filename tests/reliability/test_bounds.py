@@ -21,8 +21,13 @@ REFUSED = [
       "--max-memory", "1G"],
      "would need about 1.79 GiB of memory, over the limit of 1 GiB", "--max-memory sets"),
     (["replay", "log.mcap", "-o", "r.mcap", "--snapshot-rate", "1e12"],
-     "snapshot_rate = 1e+12 Hz is above 150 Hz, 10 times the camera's frame rate in the log "
+     "'snapshot_rate': must be at most 10000.0 Hz, got 1000000000000.0",
+     "(option --snapshot-rate)"),
+    (["replay", "log.mcap", "-o", "r.mcap", "--snapshot-rate", "1000"],
+     "snapshot_rate = 1000 Hz is above 150 Hz, 10 times the camera's frame rate in the log "
      "log.mcap (15 Hz)", "(option --snapshot-rate)"),
+    (["replay", "log.mcap", "-o", "r.mcap", "--flies", "20000000"],
+     "'--flies': 20000000 is not in the range 16<=x<=10000000", ""),
     (["replay", "log.mcap", "-o", "r.mcap", "--config", "extent.toml"],
      "a replay of 2 s would write about", "--max-output-size sets the limit"),
     (["replay", "log.mcap", "-o", "r.mcap", "--config", "extent.toml", "--max-output-size",
@@ -80,8 +85,8 @@ def test_replay_estimate_grows_with_the_grid_and_the_snapshots():
     base = replay_estimate(ReplayConfig(), rig, 60.0)
     planner = dataclasses.replace(ReplayConfig().planner, extent=200.0)
     wide = replay_estimate(dataclasses.replace(ReplayConfig(), planner=planner), rig, 60.0)
-    # 2000² instead of 200² cells: 100x the potential per snapshot, +113 B a cell of memory
-    assert wide.memory_bytes - base.memory_bytes >= 113 * (2000**2 - 200**2)
+    # 2000² instead of 200² cells: 100x the potential per snapshot, 160 B a cell of memory
+    assert wide.memory_bytes - base.memory_bytes == 160 * (2000**2 - 200**2)
     assert wide.output_bytes > 40 * base.output_bytes
     with pytest.raises(LimitError) as info:
         wide.check(Limits(max_output_size=2**30, max_memory=2**40))
@@ -110,6 +115,18 @@ SCENE_ERRORS = [
      'end = [5.0, 1.0]\n',
      "s.toml: 2 problems: obstacles[0] lies over the robot's start"),
 ]  # fmt: skip
+
+
+def test_command_line_overrides_are_checked_as_a_file_is():
+    from flylog.config import replace_dotted
+
+    config = replace_dotted(ReplayConfig(), {"engine.flies": 6000, "snapshot_rate": 2.0})
+    assert (config.engine.flies, config.snapshot_rate) == (6000, 2.0)
+    with pytest.raises(ConfigError, match=r"'engine.flies': must be at most 10000000") as info:
+        replace_dotted(ReplayConfig(), {"engine.flies": 10**12})
+    assert info.value.parameter == "engine.flies"
+    with pytest.raises(ConfigError, match="'evals_per_second' must be a finite number, got nan"):
+        replace_dotted(ReplayConfig(), {"evals_per_second": float("nan")})
 
 
 @pytest.mark.parametrize(("text", "message"), SCENE_ERRORS)
