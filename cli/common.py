@@ -3,27 +3,96 @@
 from __future__ import annotations
 
 import functools
+import math
+import os
+import signal
 import sys
+import threading
 import warnings
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from typing import Any, TypeVar
+from typing import Any, NoReturn, TypeVar
 
 import click
 from rich.console import Console
+from rich.markup import escape
 
 F = TypeVar("F", bound=Callable[..., Any])
 
 EXIT_BAD_INPUT = 2
-EXIT_INTERRUPTED = 130
+EXIT_BUG = 1
+EXIT_INTERRUPTED = 130  # 128 + SIGINT, as a shell reports Ctrl-C
+# Signals handled as Ctrl-C is: what CI time-outs and `docker stop` send, and a closed terminal.
+STOP_SIGNALS = (signal.SIGTERM, signal.SIGHUP) if hasattr(signal, "SIGHUP") else (signal.SIGTERM,)
+DEBUG_VARIABLE = "FLYLOG_DEBUG"
 
 stderr = Console(stderr=True, highlight=False)
 stdout = Console(highlight=False)
 
 
+class Terminated(BaseException):
+    """A stop signal arrived (a BaseException, as KeyboardInterrupt: nothing catches it on
+    the way up, and every output's ``with`` block removes its temporary file)."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _on_stop_signal(signum: int, frame: object) -> None:
+    for s in STOP_SIGNALS:  # a second signal must not interrupt the clean-up
+        signal.signal(s, signal.SIG_IGN)
+    raise Terminated(signum)
+
+
+@contextmanager
+def stop_signals_interrupt() -> Iterator[None]:
+    """Within the block, SIGTERM and SIGHUP raise Terminated in the main thread."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {s: signal.signal(s, _on_stop_signal) for s in STOP_SIGNALS}
+    try:
+        yield
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+
+
+def debugging() -> bool:
+    """FLYLOG_DEBUG=1: errors show their traceback."""
+    return os.environ.get(DEBUG_VARIABLE, "") not in ("", "0")
+
+
+def _option_hint(exc: Any) -> str:
+    """'; choose another --output' for an error naming the parameter an option sets."""
+    from flylog.errors import LimitError, OutputError
+
+    name = getattr(exc, "parameter", None)
+    ctx = click.get_current_context(silent=True)
+    if name is None or ctx is None:
+        return ""
+    for p in ctx.command.params:
+        if p.name == name:
+            flag = p.opts[-1] if isinstance(p, click.Option) else p.human_readable_name
+            break
+    else:
+        return ""
+    if isinstance(exc, OutputError):
+        return f"; choose another {flag}"
+    if isinstance(exc, LimitError):
+        return f"; {flag} sets the limit"
+    return f" (option {flag})"
+
+
 def reports_errors(fn: F) -> F:
-    """Run a command body; a FlylogError becomes one red line on stderr and exit code 2,
-    Ctrl-C exit code 130, and library warnings (e.g. a truncated log) yellow lines."""
+    """Run a command body and end it as a user expects.
+
+    A FlylogError is one red line on stderr and exit code 2, as is an OSError (a file that
+    cannot be read or written: the environment's, not flylog's); Ctrl-C exits with 130,
+    SIGTERM and SIGHUP with 128 + the signal, each after removing the partial outputs; any
+    other exception is a bug in flylog: one line saying so, exit code 1. FLYLOG_DEBUG=1
+    adds the traceback. Library warnings (e.g. a truncated log) become yellow lines."""
 
     @functools.wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
@@ -35,17 +104,42 @@ def reports_errors(fn: F) -> F:
         previous = warnings.showwarning
         warnings.showwarning = show_warning
         try:
-            return fn(*args, **kwargs)
+            with stop_signals_interrupt():
+                return fn(*args, **kwargs)
+        except (click.ClickException, click.exceptions.Exit, click.Abort):
+            raise
         except FlylogError as exc:
-            stderr.print(f"[red]error:[/] {exc}", soft_wrap=True)
-            sys.exit(EXIT_BAD_INPUT)
+            _error(f"{exc}{_option_hint(exc)}", EXIT_BAD_INPUT)
+        except OSError as exc:
+            where = f"{exc.filename}: " if exc.filename is not None else ""
+            _error(f"{where}{exc.strerror or exc}", EXIT_BAD_INPUT)
         except KeyboardInterrupt:
             stderr.print("[red]interrupted[/]: no output was written")
             sys.exit(EXIT_INTERRUPTED)
+        except Terminated as exc:
+            name = signal.Signals(exc.signum).name
+            stderr.print(f"[red]stopped by {name}[/]: no output was written")
+            sys.exit(128 + exc.signum)
+        except Exception as exc:
+            if debugging():
+                raise
+            stderr.print(
+                f"[red]internal error[/] (a bug in flylog, please report it): "
+                f"{type(exc).__name__}: {exc}; {DEBUG_VARIABLE}=1 shows the traceback",
+                soft_wrap=True,
+            )
+            sys.exit(EXIT_BUG)
         finally:
             warnings.showwarning = previous
 
     return wrapper  # type: ignore[return-value]
+
+
+def _error(message: str, code: int) -> NoReturn:
+    if debugging():
+        stderr.print_exception()
+    stderr.print(f"[red]error:[/] {escape(message)}", soft_wrap=True)
+    sys.exit(code)
 
 
 @contextmanager
@@ -63,6 +157,10 @@ def progress_bar(
         yield update
 
 
+# Image sides the command line accepts: those of StereoRig's width and height.
+MIN_IMAGE_SIDE, MAX_IMAGE_SIDE = 16, 8192
+
+
 def resolution(
     ctx: click.Context, param: click.Parameter, value: str | None
 ) -> tuple[int, int] | None:
@@ -74,10 +172,83 @@ def resolution(
     except ValueError:
         msg = f"expected WIDTHxHEIGHT in pixels, e.g. 320x240, got {value!r}"
         raise click.BadParameter(msg) from None
-    if w < 16 or h < 16:
-        msg = f"images must be at least 16x16 pixels, got {value!r}"
+    if not (MIN_IMAGE_SIDE <= w <= MAX_IMAGE_SIDE and MIN_IMAGE_SIDE <= h <= MAX_IMAGE_SIDE):
+        msg = f"image sides must be {MIN_IMAGE_SIDE} to {MAX_IMAGE_SIDE} pixels, got {value!r}"
         raise click.BadParameter(msg)
     return w, h
+
+
+class Finite(click.FloatRange):
+    """A finite number (NaN and ±inf refused) within an optional range."""
+
+    name = "finite number"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        number = click.FLOAT.convert(value, param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"{value!r} is not a finite number", param, ctx)
+        return super().convert(number, param, ctx)
+
+
+def point(ctx: click.Context, param: click.Parameter, value: str | None):
+    """Parse ``X,Y`` in metres (finite numbers) for --goal."""
+    if value is None:
+        return None
+    try:
+        x, y = (float(p) for p in value.split(","))
+    except ValueError:
+        msg = f"expected X,Y in metres, e.g. 10,0.5, got {value!r}"
+        raise click.BadParameter(msg) from None
+    if not (math.isfinite(x) and math.isfinite(y)):
+        msg = f"expected finite X,Y in metres, got {value!r}"
+        raise click.BadParameter(msg)
+    return (x, y)
+
+
+SIZE_UNITS = {"": 1, "K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40}
+
+
+class ByteSize(click.ParamType):
+    """A size in bytes: 500M, 8G, 1.5T (binary units: K = 1024), or a plain number."""
+
+    name = "size"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        if isinstance(value, int):
+            return value
+        text = str(value).strip().upper().removesuffix("IB").removesuffix("B")
+        unit = text[-1:] if text[-1:] in SIZE_UNITS else ""
+        try:
+            number = float(text[: len(text) - len(unit)])
+        except ValueError:
+            number = math.nan
+        if not (math.isfinite(number) and number > 0):
+            self.fail(f"expected a size such as 500M, 8G or 1.5T, got {value!r}", param, ctx)
+        return round(number * SIZE_UNITS[unit])
+
+
+def limit_options(fn: F) -> F:
+    """--max-output-size and --max-memory, the limits a job is checked against before it
+    starts (flylog.budget)."""
+    from flylog.budget import DEFAULT_LIMITS
+
+    fn = click.option(
+        "--max-memory",
+        type=ByteSize(),
+        default=DEFAULT_LIMITS.max_memory,
+        metavar="SIZE",
+        help="Refuse a job whose estimated peak memory is above SIZE (e.g. 16G). "
+        f"[default: {human_bytes(DEFAULT_LIMITS.max_memory)}]",
+    )(fn)
+    fn = click.option(
+        "--max-output-size",
+        type=ByteSize(),
+        default=DEFAULT_LIMITS.max_output_size,
+        metavar="SIZE",
+        help="Refuse a job whose estimated output is above SIZE (e.g. 100G). "
+        f"[default: {human_bytes(DEFAULT_LIMITS.max_output_size)}]",
+    )(fn)
+    return fn
 
 
 def human_bytes(n: float) -> str:

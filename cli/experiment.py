@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from flylog.cli.common import progress_bar, reports_errors, resolution, stdout
+from flylog.cli.common import Finite, progress_bar, reports_errors, resolution, stdout
 
 QUICK_RESOLUTION = (160, 120)
 QUICK_SEEDS = 2
@@ -42,7 +42,7 @@ DEFAULT_SEEDS = 5
 )
 @click.option(
     "--duration",
-    type=click.FloatRange(min=0.0, min_open=True),
+    type=Finite(min=0.0, min_open=True),
     default=None,
     metavar="SECONDS",
     help="Simulated time of every log. [default: each experiment's scene durations: turn "
@@ -50,7 +50,7 @@ DEFAULT_SEEDS = 5
 )
 @click.option(
     "--flies",
-    type=click.IntRange(min=16),
+    type=click.IntRange(min=16, max=10_000_000),
     default=None,
     metavar="N",
     help="Population size. [default: the engine's, 5000]",

@@ -14,7 +14,7 @@ from flylog.cli.common import progress_bar, reports_errors, stdout
 @click.argument("source", type=click.Path(path_type=Path))
 @click.option(
     "--tum",
-    "tum_dir",
+    "out_dir",
     type=click.Path(file_okay=False, path_type=Path),
     default=None,
     metavar="OUTDIR",
@@ -47,13 +47,13 @@ from flylog.cli.common import progress_bar, reports_errors, stdout
 )
 @reports_errors
 def export(
-    source: Path, tum_dir: Path | None, ros2_dir: Path | None, image_format: str, truth: bool
+    source: Path, out_dir: Path | None, ros2_dir: Path | None, image_format: str, truth: bool
 ) -> None:
     """Export SOURCE: its trajectories in the TUM format (`--tum`: `timestamp tx ty tz qx
     qy qz qw`, for evo: `evo_ape tum true.tum odom.tum --align`; planned.tum holds the first
     pose of each /planner/path message; SOURCE a sensor log, closed-loop log, run file or
     ROS 2 bag), or a sensor log as a ROS 2 bag (`--ros2`)."""
-    if (tum_dir is None) == (ros2_dir is None):
+    if (out_dir is None) == (ros2_dir is None):
         msg = "give exactly one of --tum OUTDIR and --ros2 OUT"
         raise click.UsageError(msg)
     if ros2_dir is not None:
@@ -69,7 +69,7 @@ def export(
         return
     from flylog.metrics.tum import export_tum
 
-    assert tum_dir is not None
-    written = export_tum(source, tum_dir)
+    assert out_dir is not None
+    written = export_tum(source, out_dir)
     for name, path in written.items():
         stdout.print(f"{name}: {path}")

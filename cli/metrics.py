@@ -8,7 +8,7 @@ from typing import Any
 
 import click
 
-from flylog.cli.common import progress_bar, reports_errors, stdout
+from flylog.cli.common import Finite, progress_bar, reports_errors, stdout
 
 _SHOWN = (
     ("snapshots", "fly snapshots", ""),
@@ -74,11 +74,11 @@ def _fmt(value: Any) -> str:
     default=None,
     help="TOML file of metrics thresholds (fields of flylog.metrics.config.MetricsConfig).",
 )
-@click.option("--tau", type=click.FloatRange(0.0, 1.0), default=None, help="Relative depth "
+@click.option("--tau", type=Finite(0.0, 1.0), default=None, help="Relative depth "
               "tolerance of 'on a surface'. [default: 0.05]")  # fmt: skip
-@click.option("--goal-tolerance", type=click.FloatRange(min=0.0), default=None, metavar="M",
+@click.option("--goal-tolerance", type=Finite(min=0.0), default=None, metavar="M",
               help="Distance at which the goal counts as reached. [default: 0.2 m]")  # fmt: skip
-@click.option("--rpe-delta", type=click.FloatRange(min=0.001), default=None, metavar="S",
+@click.option("--rpe-delta", type=Finite(min=0.001), default=None, metavar="S",
               help="Time step of the relative pose error. [default: 1 s]")  # fmt: skip
 @reports_errors
 def metrics(
@@ -96,8 +96,20 @@ def metrics(
     from rich.table import Table
 
     from flylog.config import from_mapping, read_toml, replace_dotted
+    from flylog.io.collisions import Role, check_outputs
     from flylog.metrics.config import MetricsConfig
     from flylog.metrics.score import score_run, write_metrics
+    from flylog.metrics.tables import obstacles_path, summary_path
+
+    inputs = [Role(run, "the run", "run")]
+    inputs += [Role(log, "the sensor log", "log")] if log is not None else []
+    inputs += [Role(config_file, "the configuration", "config_file")] if config_file else []
+    outputs = [
+        Role(output, "the snapshot table", "output"),
+        Role(summary_path(output), "the summary table", "output"),
+        Role(obstacles_path(output), "the obstacle table", "output"),
+    ]
+    check_outputs(inputs, outputs)
 
     config = MetricsConfig()
     if config_file is not None:

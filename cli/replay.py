@@ -6,19 +6,8 @@ from pathlib import Path
 
 import click
 
-from flylog.cli.common import progress_bar, reports_errors, stdout
+from flylog.cli.common import Finite, limit_options, point, progress_bar, reports_errors, stdout
 from flylog.cli.main import freeze_imported_objects
-
-
-def _goal(ctx: click.Context, param: click.Parameter, value: str | None):
-    if value is None:
-        return None
-    try:
-        x, y = (float(p) for p in value.split(","))
-    except ValueError:
-        msg = f"expected X,Y in metres, e.g. 10,0.5, got {value!r}"
-        raise click.BadParameter(msg) from None
-    return (x, y)
 
 
 @click.command()
@@ -59,14 +48,14 @@ def _goal(ctx: click.Context, param: click.Parameter, value: str | None):
 )
 @click.option(
     "--flies",
-    type=click.IntRange(min=16),
+    type=click.IntRange(min=16, max=10_000_000),
     default=None,
     metavar="N",
     help="Population size. [default: 5000]",
 )
 @click.option(
     "--generations-per-frame",
-    type=click.IntRange(min=0),
+    type=click.IntRange(min=0, max=10_000),
     default=None,
     metavar="N",
     help="Run exactly N generations per stereo pair (the paper's experiments use 1); 0 runs "
@@ -74,7 +63,7 @@ def _goal(ctx: click.Context, param: click.Parameter, value: str | None):
 )
 @click.option(
     "--evals-per-second",
-    type=click.FloatRange(min=1.0),
+    type=Finite(min=1.0, max=1e9),
     default=None,
     metavar="X",
     help="Virtual compute budget in fitness evaluations per second: each generation costs "
@@ -90,14 +79,15 @@ def _goal(ctx: click.Context, param: click.Parameter, value: str | None):
 )
 @click.option(
     "--snapshot-rate",
-    type=click.FloatRange(min=0.01),
+    type=Finite(min=0.01),
     default=None,
     metavar="HZ",
-    help="How often flies, potential and path are written. [default: 5 Hz]",
+    help="How often flies, potential and path are written, at most 10 times the log's "
+    "camera frame rate. [default: 5 Hz]",
 )
 @click.option(
     "--goal",
-    callback=_goal,
+    callback=point,
     default=None,
     metavar="X,Y",
     help="Goal in the odom frame, m. [default: the log's mission metadata; a ROS 2 bag's "
@@ -128,6 +118,7 @@ def _goal(ctx: click.Context, param: click.Parameter, value: str | None):
     help="ROS 2 bags: Range readings within this time of a cycle's first form one sonar "
     "cycle. [default: 0.05 s]",
 )
+@limit_options
 @reports_errors
 def replay(
     log: Path,
@@ -144,17 +135,30 @@ def replay(
     topics: tuple[str, ...],
     pair_tolerance: float | None,
     sonar_window: float | None,
+    max_output_size: int,
+    max_memory: int,
 ) -> None:
     """Replay LOG (an MCAP log from `flylog simulate`, or a ROS 2 bag: a ros2-profile .mcap
     file or a rosbag2 directory) through the fly engine (or the SGBM baseline) and the
     harmonic-function planner on a deterministic virtual clock. Never reads /truth/. A bag
-    without a goal and no --goal replays the engine only, the planner off."""
+    without a goal and no --goal replays the engine only, the planner off.
+
+    A job whose estimated output or peak memory is over --max-output-size or --max-memory
+    is refused before it starts, with the estimate."""
+    from flylog.budget import Limits
     from flylog.config import replace_dotted
+    from flylog.io.collisions import Role, check_outputs
     from flylog.replay.config import ReplayConfig, Stereo, load_replay_config
     from flylog.replay.run import replay as run_replay
+    from flylog.replay.run import table_path
     from flylog.ros2.config import BagOptions
 
     freeze_imported_objects()
+    check_outputs(
+        [Role(log, "the sensor log", "log")]
+        + ([Role(config_file, "the configuration", "config_file")] if config_file else []),
+        [Role(output, "the run", "output"), Role(table_path(output), "the step table", "output")],
+    )
 
     config = load_replay_config(config_file) if config_file else ReplayConfig()
     overrides = {
@@ -176,7 +180,15 @@ def replay(
         {"topics": topics or None, "pair_tolerance": pair_tolerance, "sonar_window": sonar_window},
     )
     with progress_bar(f"replay {log.name}", unit="s") as update:
-        summary = run_replay(log, output, config, goal=goal, bag=bag, on_progress=update)
+        summary = run_replay(
+            log,
+            output,
+            config,
+            goal=goal,
+            bag=bag,
+            on_progress=update,
+            limits=Limits(max_output_size=max_output_size, max_memory=max_memory),
+        )
     speed = summary.log_duration / summary.wall_seconds
     if summary.stereo == Stereo.SGBM.value:
         work = f"{summary.generations} frames matched by SGBM"

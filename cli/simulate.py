@@ -6,7 +6,16 @@ from pathlib import Path
 
 import click
 
-from flylog.cli.common import human_bytes, progress_bar, reports_errors, resolution, stdout
+from flylog.cli.common import (
+    Finite,
+    human_bytes,
+    limit_options,
+    progress_bar,
+    reports_errors,
+    resolution,
+    stdout,
+)
+from flylog.geometry.stereo import MAX_FRAME_RATE
 
 
 @click.command()
@@ -20,7 +29,7 @@ from flylog.cli.common import human_bytes, progress_bar, reports_errors, resolut
 )
 @click.option(
     "--duration",
-    type=click.FloatRange(min=0.0, min_open=True),
+    type=Finite(min=0.0, min_open=True),
     default=None,
     metavar="SECONDS",
     help="Simulated time in seconds. [default: the scene's `duration`, else 20 s]",
@@ -43,10 +52,11 @@ from flylog.cli.common import human_bytes, progress_bar, reports_errors, resolut
 )
 @click.option(
     "--frame-rate",
-    type=click.FloatRange(min=0.1),
+    type=Finite(min=0.1, max=MAX_FRAME_RATE),
     default=None,
     metavar="HZ",
-    help="Stereo pairs per second. [default: the scene's camera.frame_rate, 15 Hz]",
+    help=f"Stereo pairs per second, at most {MAX_FRAME_RATE:g}. [default: the scene's "
+    "camera.frame_rate, 15 Hz]",
 )
 @click.option(
     "--compression",
@@ -72,6 +82,7 @@ from flylog.cli.common import human_bytes, progress_bar, reports_errors, resolut
     help="With --drive planner: the engine/planner configuration, as for `flylog replay "
     "--config`. [default: built-in defaults]",
 )
+@limit_options
 @reports_errors
 def simulate(
     scene: Path,
@@ -83,14 +94,26 @@ def simulate(
     compression: str,
     drive: str,
     config_file: Path | None,
+    max_output_size: int,
+    max_memory: int,
 ) -> None:
     """Simulate the robot in SCENE (a TOML scene file) and record stereo frames, sonar,
-    odometry and ground truth as an MCAP log."""
+    odometry and ground truth as an MCAP log.
+
+    A job whose estimated output or peak memory is over --max-output-size or --max-memory
+    is refused before it starts, with the estimate."""
+    from flylog.budget import Limits
+    from flylog.io.collisions import Role, check_outputs
     from flylog.io.writer import Compression, LogConfig
     from flylog.scene.load import load_scene
     from flylog.sim.run import SimulationOptions
     from flylog.sim.run import simulate as run_simulation
 
+    check_outputs(
+        [Role(scene, "the scene", "scene")]
+        + ([Role(config_file, "the configuration", "config_file")] if config_file else []),
+        [Role(output, "the log", "output")],
+    )
     loaded = load_scene(scene)
     options = SimulationOptions(
         duration=duration,
@@ -98,13 +121,16 @@ def simulate(
         resolution=resolution,
         frame_rate=frame_rate,
         log=LogConfig(compression=Compression(compression)),
+        limits=Limits(max_output_size=max_output_size, max_memory=max_memory),
     )
     make_driver = None
     if drive == "planner":
         from flylog.replay.closed_loop import PlannerDriver
         from flylog.replay.config import ReplayConfig, load_replay_config
+        from flylog.replay.limits import check_closed_loop
 
         config = load_replay_config(config_file) if config_file else ReplayConfig()
+        check_closed_loop(config, loaded, options)
 
         def make_driver(scene, write):
             return PlannerDriver(config, scene.spec.camera, scene.start_pose, scene.goal, write)

@@ -9,10 +9,11 @@ from __future__ import annotations
 
 import dataclasses
 import enum
+import math
 import tomllib
 import types
 import typing
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -52,9 +53,22 @@ def read_toml(path: Path) -> dict[str, Any]:
     except FileNotFoundError:
         msg = f"{path}: no such file"
         raise ConfigError(msg) from None
+    except UnicodeDecodeError:
+        msg = f"{path}: not a TOML file (not UTF-8 text)"
+        raise ConfigError(msg) from None
     except tomllib.TOMLDecodeError as exc:
         msg = f"{path}: not valid TOML ({exc})"
         raise ConfigError(msg) from None
+    except OSError as exc:  # a directory, no permission, an I/O error
+        msg = f"{path}: cannot be read ({exc.strerror or exc})"
+        raise ConfigError(msg) from None
+
+
+def problems_message(source: str, problems: Sequence[str]) -> str:
+    """One line for one problem or several: ``FILE: problem`` or ``FILE: N problems: a; b``."""
+    if len(problems) == 1:
+        return f"{source}: {problems[0]}"
+    return f"{source}: {len(problems)} problems: " + "; ".join(problems)
 
 
 def _expected(tp: Any) -> str:
@@ -79,104 +93,125 @@ def _expected(tp: Any) -> str:
     return str(tp)
 
 
-def _convert(tp: Any, value: Any, where: str, source: str) -> Any:
+class _Bad:
+    """What a field that failed its check converts to (its problem is already noted)."""
+
+
+_BAD = _Bad()
+
+
+def _convert(tp: Any, value: Any, where: str, problems: list[str]) -> Any:
+    """``value`` converted to ``tp``, or _BAD with the problem appended to ``problems``."""
     origin = typing.get_origin(tp)
     if origin in (typing.Union, types.UnionType):
         args = [a for a in typing.get_args(tp) if a is not type(None)]
         if value is None:
             return None
-        return _convert(args[0], value, where, source)
-    bad = f"{source}: field '{where}': expected {_expected(tp)}, got {value!r}"
+        return _convert(args[0], value, where, problems)
+
+    def bad() -> _Bad:
+        problems.append(f"field '{where}': expected {_expected(tp)}, got {value!r}")
+        return _BAD
+
     if tp is bool:
-        if not isinstance(value, bool):
-            raise ConfigError(bad)
-        return value
+        return value if isinstance(value, bool) else bad()
     if tp is int:
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise ConfigError(bad)
-        return value
+        return bad() if isinstance(value, bool) or not isinstance(value, int) else value
     if tp is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise ConfigError(bad)
+            return bad()
+        if not math.isfinite(value):  # TOML has nan and inf
+            problems.append(f"field '{where}': expected a finite number, got {value!r}")
+            return _BAD
         return float(value)
     if tp is str:
-        if not isinstance(value, str):
-            raise ConfigError(bad)
-        return value
+        return value if isinstance(value, str) else bad()
     if isinstance(tp, type) and issubclass(tp, enum.Enum):
         try:
             return tp(value)
         except ValueError:
-            raise ConfigError(bad) from None
+            return bad()
     if origin is tuple:
         if not isinstance(value, (list, tuple)):
-            raise ConfigError(bad)
-        items = typing.get_args(tp)
-        if len(items) == 2 and items[1] is Ellipsis:
-            return tuple(
-                _convert(items[0], v, f"{where}[{i}]", source) for i, v in enumerate(value)
-            )
-        if len(value) != len(items):
-            raise ConfigError(bad)
-        return tuple(
-            _convert(a, v, f"{where}[{i}]", source)
-            for i, (a, v) in enumerate(zip(items, value, strict=True))
+            return bad()
+        members = typing.get_args(tp)
+        if len(members) == 2 and members[1] is Ellipsis:
+            members = (members[0],) * len(value)
+        elif len(value) != len(members):
+            return bad()
+        items = tuple(
+            _convert(a, v, f"{where}[{i}]", problems)
+            for i, (a, v) in enumerate(zip(members, value, strict=True))
         )
-    if isinstance(tp, type) and dataclasses.is_dataclass(tp):
+        return _BAD if any(v is _BAD for v in items) else items
+    if dataclasses.is_dataclass(tp):
         if not isinstance(value, Mapping):
-            raise ConfigError(bad)
-        return from_mapping(tp, value, source=source, prefix=where)
+            return bad()
+        return _build(tp, value, where, problems)  # type: ignore[arg-type]
     msg = f"config type {tp!r} at '{where}' is not supported"
     raise TypeError(msg)
+
+
+def _out_of_range(f: dataclasses.Field[Any], converted: Any, value: Any, where: str) -> str | None:
+    if not isinstance(converted, (int, float)) or isinstance(converted, bool):
+        return None
+    lo, hi = f.metadata.get("min"), f.metadata.get("max")
+    unit = f" {f.metadata['unit']}" if f.metadata.get("unit") else ""
+    if lo is not None and converted < lo:
+        return f"field '{where}': must be at least {lo}{unit}, got {value!r}"
+    if hi is not None and converted > hi:
+        return f"field '{where}': must be at most {hi}{unit}, got {value!r}"
+    return None
+
+
+def _build(cls: type[T], data: Mapping[str, Any], prefix: str, problems: list[str]) -> Any:
+    """``cls`` built from ``data``, or _BAD with every problem found appended."""
+    hints = typing.get_type_hints(cls)
+    fields = {f.name: f for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    before = len(problems)
+    dotted = f"{prefix}." if prefix else ""
+    for name in sorted(set(data) - set(fields)):
+        problems.append(
+            f"unknown field '{dotted}{name}'; expected one of: {', '.join(sorted(fields))}"
+        )
+    kwargs: dict[str, Any] = {}
+    for name, value in data.items():
+        if name not in fields:
+            continue
+        where = f"{dotted}{name}"
+        converted = _convert(hints[name], value, where, problems)
+        if converted is _BAD:
+            continue
+        wrong = _out_of_range(fields[name], converted, value, where)
+        if wrong is not None:
+            problems.append(wrong)
+            continue
+        kwargs[name] = converted
+    for n, f in fields.items():
+        required = f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING
+        if required and n not in data:
+            problems.append(f"missing field '{dotted}{n}' ({_expected(hints[n])})")
+    if len(problems) > before:
+        return _BAD
+    try:
+        return cls(**kwargs)
+    except (ConfigError, ValueError, TypeError) as exc:  # cross-field checks in __post_init__
+        problems.append(f"{prefix + ': ' if prefix else ''}{exc}")
+        return _BAD
 
 
 def from_mapping(cls: type[T], data: Mapping[str, Any], *, source: str, prefix: str = "") -> T:
     """Build the frozen dataclass ``cls`` from a TOML mapping, checking every field.
 
-    Unknown keys, wrong types and out-of-range values raise ConfigError with the
-    file (``source``), the dotted field name and what is expected.
+    Unknown keys, wrong types, numbers that are not finite and out-of-range values raise
+    one ConfigError with the file (``source``) and, for every problem found, the dotted
+    field name and what is expected.
     """
-    hints = typing.get_type_hints(cls)
-    fields = {f.name: f for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
-    unknown = sorted(set(data) - set(fields))
-    if unknown:
-        where = f"{prefix}." if prefix else ""
-        msg = (
-            f"{source}: unknown field '{where}{unknown[0]}'; "
-            f"expected one of: {', '.join(sorted(fields))}"
-        )
-        raise ConfigError(msg)
-    kwargs: dict[str, Any] = {}
-    for name, value in data.items():
-        where = f"{prefix}.{name}" if prefix else name
-        f = fields[name]
-        converted = _convert(hints[name], value, where, source)
-        lo, hi = f.metadata.get("min"), f.metadata.get("max")
-        unit = f" {f.metadata['unit']}" if f.metadata.get("unit") else ""
-        if isinstance(converted, (int, float)) and not isinstance(converted, bool):
-            if lo is not None and converted < lo:
-                msg = f"{source}: field '{where}': must be at least {lo}{unit}, got {value!r}"
-                raise ConfigError(msg)
-            if hi is not None and converted > hi:
-                msg = f"{source}: field '{where}': must be at most {hi}{unit}, got {value!r}"
-                raise ConfigError(msg)
-        kwargs[name] = converted
-    missing = [
-        n
-        for n, f in fields.items()
-        if n not in kwargs
-        and f.default is dataclasses.MISSING
-        and f.default_factory is dataclasses.MISSING
-    ]
-    if missing:
-        where = f"{prefix}." if prefix else ""
-        msg = f"{source}: missing field '{where}{missing[0]}' ({_expected(hints[missing[0]])})"
-        raise ConfigError(msg)
-    try:
-        return cls(**kwargs)
-    except (ValueError, TypeError) as exc:  # cross-field checks in __post_init__
-        msg = f"{source}: {prefix + ': ' if prefix else ''}{exc}"
-        raise ConfigError(msg) from None
+    problems: list[str] = []
+    built = _build(cls, data, prefix, problems)
+    if problems:
+        raise ConfigError(problems_message(source, problems))
+    return built  # type: ignore[no-any-return]
 
 
 def to_mapping(obj: Any) -> Any:
@@ -190,8 +225,11 @@ def to_mapping(obj: Any) -> Any:
     return obj
 
 
-def replace_dotted(obj: T, overrides: Mapping[str, Any]) -> T:
-    """Return ``obj`` with ``{"engine.flies": 5000}``-style overrides applied (no None)."""
+def replace_dotted(obj: T, overrides: Mapping[str, Any], *, _prefix: str = "") -> T:
+    """Return ``obj`` with ``{"engine.flies": 5000}``-style overrides applied (no None).
+
+    Each value is checked as a file's would be (finite, inside the field's range):
+    ConfigError naming the dotted field, with ``parameter`` the dotted name."""
     for dotted, value in overrides.items():
         if value is None:
             continue
@@ -199,8 +237,20 @@ def replace_dotted(obj: T, overrides: Mapping[str, Any]) -> T:
         if rest:
             obj = dataclasses.replace(
                 obj,  # type: ignore[type-var]
-                **{head: replace_dotted(getattr(obj, head), {rest: value})},
+                **{
+                    head: replace_dotted(
+                        getattr(obj, head), {rest: value}, _prefix=f"{_prefix}{head}."
+                    )
+                },
             )
-        else:
-            obj = dataclasses.replace(obj, **{head: value})  # type: ignore[type-var]
+            continue
+        where = _prefix + head
+        field = {f.name: f for f in dataclasses.fields(obj)}[head]  # type: ignore[arg-type]
+        if isinstance(value, float) and not math.isfinite(value):
+            msg = f"'{where}' must be a finite number, got {value!r}"
+            raise ConfigError(msg, parameter=where)
+        wrong = _out_of_range(field, value, value, where)
+        if wrong is not None:
+            raise ConfigError(wrong.replace("field ", "", 1), parameter=where)
+        obj = dataclasses.replace(obj, **{head: value})  # type: ignore[type-var]
     return obj

@@ -20,6 +20,7 @@ import numpy as np
 
 from flylog.config import param, to_mapping
 from flylog.errors import ConfigError
+from flylog.io.atomic import write_text
 
 SCENES = Path(__file__).resolve().parents[2] / "fixtures" / "scenes"
 
@@ -160,7 +161,7 @@ def write_results(
         "table": [{k: _plain(v) for k, v in r.items()} for r in table.rows],
     }
     out = path / "results.json"
-    out.write_text(json.dumps(data, indent=1, default=str))
+    write_text(out, json.dumps(data, indent=1, default=str))
     return out
 
 

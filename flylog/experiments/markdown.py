@@ -15,6 +15,7 @@ from flylog.experiments.common import (
     format_cell,
     write_results,
 )
+from flylog.io.atomic import write_text
 
 
 def markdown_table(table: Table) -> str:
@@ -49,7 +50,7 @@ def write_summary(
         for path, caption in figures:
             lines += [f"![{caption}]({path.name})", "", f"*{caption}*", ""]
     out = directory / "summary.md"
-    out.write_text("\n".join(lines))
+    write_text(out, "\n".join(lines))
     return out
 
 

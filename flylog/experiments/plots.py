@@ -4,6 +4,7 @@ the flies overlaid; metric curves over time. PNGs are kept small (about 100 KB).
 
 from __future__ import annotations
 
+import io
 import math
 import warnings
 from collections.abc import Sequence
@@ -14,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from flylog.geometry import StereoRig
+from flylog.io.atomic import write_bytes
 from flylog.scene.footprints import DISC
 from flylog.scene.load import Scene
 
@@ -31,8 +33,11 @@ def _pyplot() -> Any:
 
 
 def _save(fig: Any, path: Path) -> Path:
-    fig.savefig(path, dpi=DPI, bbox_inches="tight")
+    """Write ``fig`` as PNG atomically (flylog.io.atomic)."""
+    image = io.BytesIO()
+    fig.savefig(image, format="png", dpi=DPI, bbox_inches="tight")
     _pyplot().close(fig)
+    write_bytes(path, image.getvalue())
     return path
 
 

@@ -14,6 +14,8 @@ from flylog.config import param
 OPTICAL_TO_BASE = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 # The same rotation as a quaternion (x, y, z, w): (-0.5, 0.5, -0.5, 0.5).
 OPTICAL_IN_BASE_QUAT = (-0.5, 0.5, -0.5, 0.5)
+# Stereo pairs per second at most: the rate of high-speed machine-vision cameras.
+MAX_FRAME_RATE = 1000.0
 
 
 @dataclass(frozen=True)
@@ -23,10 +25,14 @@ class StereoRig:
     width: int = param(640, help="image width", unit="px", min=16, max=8192)
     height: int = param(480, help="image height", unit="px", min=16, max=8192)
     focal_px: float = param(500.0, help="focal length", unit="px", min=1.0)
-    baseline: float = param(0.12, help="distance between the optical centres", unit="m", min=0.0)
+    baseline: float = param(
+        0.12, help="distance between the optical centres", unit="m", min=0.001, max=10.0
+    )
     mount_height: float = param(0.5, help="height of the optical centres", unit="m", min=0.0)
     mount_x: float = param(0.1, help="forward offset of the cameras", unit="m")
-    frame_rate: float = param(15.0, help="stereo pairs per second", unit="Hz", min=0.1)
+    frame_rate: float = param(
+        15.0, help="stereo pairs per second", unit="Hz", min=0.1, max=MAX_FRAME_RATE
+    )
 
     @property
     def cx(self) -> float:

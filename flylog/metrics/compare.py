@@ -28,7 +28,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from flylog.config import from_mapping, param, read_toml, to_mapping
+from flylog.config import from_mapping, param, problems_message, read_toml, to_mapping
 from flylog.errors import ConfigError
 from flylog.metrics.tables import SUMMARY_COLUMNS, read_summary
 
@@ -190,17 +190,40 @@ def compare_files(
     )
 
 
+# The metrics a tolerance may be given for: the summary's numeric columns.
+TOLERABLE = tuple(c.name for c in SUMMARY_COLUMNS if str(c.type) != "string")
+
+
+def _unknown_metrics(names: Iterable[str]) -> list[str]:
+    return [n for n in names if n not in TOLERABLE]
+
+
+def _valid_names() -> str:
+    return "valid metrics: " + ", ".join(TOLERABLE)
+
+
 def tolerances_from_mapping(
     data: Mapping[str, Any], *, source: str, base: Mapping[str, Tolerance] = DEFAULT_TOLERANCES
 ) -> dict[str, Tolerance]:
-    """``base`` with the per-metric tables of a TOML mapping applied field by field."""
+    """``base`` with the per-metric tables of a TOML mapping applied field by field; every
+    unknown metric and malformed table is reported at once."""
     out = dict(base)
+    unknown = _unknown_metrics(data)
+    problems = [f"unknown metric '{n}'" for n in unknown]
     for name, table in data.items():
+        if name not in TOLERABLE:
+            continue
         if not isinstance(table, Mapping):
-            msg = f"{source}: field '{name}': expected a table (direction, absolute, relative)"
-            raise ConfigError(msg)
+            problems.append(f"field '{name}': expected a table (direction, absolute, relative)")
+            continue
         merged = {**to_mapping(out.get(name, Tolerance())), **table}
-        out[name] = from_mapping(Tolerance, merged, source=source, prefix=name)
+        try:
+            out[name] = from_mapping(Tolerance, merged, source=source, prefix=name)
+        except ConfigError as exc:
+            problems.append(str(exc).removeprefix(f"{source}: "))
+    if problems:
+        valid = f"; {_valid_names()}" if unknown else ""
+        raise ConfigError(problems_message(source, problems) + valid)
     return out
 
 
@@ -221,9 +244,15 @@ def override_tolerance(tolerances: Mapping[str, Tolerance], spec: str) -> dict[s
         number = float(value.removesuffix("%"))
     except ValueError:
         number = math.nan
-    if not sep or not name or not number >= 0:
-        msg = f"tolerance {spec!r}: expected NAME=VALUE or NAME=PERCENT%, e.g. precision=0.05"
-        raise ConfigError(msg)
+    if not sep or not name or not (math.isfinite(number) and number >= 0):
+        msg = (
+            f"tolerance {spec!r}: expected NAME=VALUE or NAME=PERCENT% with a finite VALUE "
+            "of at least 0, e.g. precision=0.05"
+        )
+        raise ConfigError(msg, parameter="tolerance_specs")
+    if name not in TOLERABLE:
+        msg = f"tolerance {spec!r}: unknown metric '{name}'; {_valid_names()}"
+        raise ConfigError(msg, parameter="tolerance_specs")
     old = tolerances.get(name, Tolerance())
     new = (
         dataclasses.replace(old, absolute=0.0, relative=number / 100.0)

@@ -12,17 +12,20 @@ Only the trajectories the file holds are written.
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from flylog.errors import LogError
 from flylog.io import contract, open_log
+from flylog.io.atomic import write_text
+from flylog.io.collisions import Role, check_outputs
 from flylog.metrics.trajectory import Trajectory, trajectory
 from flylog.metrics.truth import read_odom_tf, read_poses, recorded_trajectories
 from flylog.ros2.detect import is_bag
+
+# The trajectories a file may hold, each written to NAME.tum.
+TUM_NAMES = ("true", "odom", "planned")
 
 
 def tum_line(t_ns: int, x: float, y: float, theta: float) -> str:
@@ -40,13 +43,7 @@ def tum_text(traj: Trajectory) -> str:
 
 def write_tum(path: Path, traj: Trajectory) -> None:
     """Write one TUM file atomically."""
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="ascii") as fh:
-            fh.write(tum_text(traj))
-        os.replace(tmp, path)
-    finally:
-        Path(tmp).unlink(missing_ok=True)
+    write_text(path, tum_text(traj), encoding="ascii")
 
 
 def planned_trajectory(path: str | Path) -> Trajectory:
@@ -91,6 +88,10 @@ def export_tum(path: str | Path, out_dir: str | Path) -> dict[str, Path]:
     """Write ``true.tum``, ``odom.tum``, ``planned.tum`` (those present) into ``out_dir``
     (created if needed); returns name → written path. LogError if there is none."""
     out_dir = Path(out_dir)
+    check_outputs(
+        [Role(Path(path), "the source", "path")],
+        [Role(out_dir / f"{name}.tum", f"the {name} trajectory", "out_dir") for name in TUM_NAMES],
+    )
     trajectories = log_trajectories(path)
     if not trajectories:
         msg = (

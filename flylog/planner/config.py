@@ -62,7 +62,13 @@ class PlannerConfig:
     relaxation: Relaxation = param(
         Relaxation.NUMBA, help="implementation of the sweep: 'numba' or the 'numpy' reference"
     )
-    tick_rate: float = param(10.0, help="planner ticks per second", unit="Hz", min=0.01)
+    tick_rate: float = param(
+        10.0,
+        help="planner ticks per second (at most 10 x the camera's frame rate)",
+        unit="Hz",
+        min=0.01,
+        max=10_000.0,
+    )
     density_radius: float = param(
         0.1,
         help="half-width of the square window over which the fly density is measured",

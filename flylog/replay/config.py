@@ -24,6 +24,11 @@ class Stereo(enum.Enum):
     SGBM = "sgbm"  # conventional OpenCV StereoSGBM on complete frames ([sgbm])
 
 
+# The largest compute budget: 270 x the 3.7 M evaluations/s of the reference machine; above
+# it, generations cost a nanosecond or less of log time and a replay never ends.
+MAX_EVALS_PER_SECOND = 1e9
+
+
 @dataclass(frozen=True)
 class ReplayConfig:
     stereo: Stereo = param(
@@ -56,12 +61,18 @@ class ReplayConfig:
         "(about 80 generations of 5000 flies per 15 Hz frame)",
         unit="evaluations/s",
         min=1.0,
+        max=MAX_EVALS_PER_SECOND,
     )
     snapshot_rate: float = param(
-        5.0, help="how often flies, potential and path are written", unit="Hz", min=0.01
+        5.0,
+        help="how often flies, potential and path are written (at most 10 x the camera's "
+        "frame rate)",
+        unit="Hz",
+        min=0.01,
+        max=10_000.0,
     )
     overlay_flies: int = param(
-        1000, help="best flies drawn on the left image in each snapshot", min=0
+        1000, help="best flies drawn on the left image in each snapshot", min=0, max=10_000_000
     )
     engine: EngineConfig = param(EngineConfig(), help="the fly engine")
     sgbm: SgbmConfig = param(SgbmConfig(), help="the conventional stereo baseline")

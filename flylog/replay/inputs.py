@@ -59,11 +59,14 @@ def replay_inputs(reader: LogReader, *, goal: tuple[float, float] | None) -> Rep
         if "goal" not in meta:
             msg = (
                 f"{reader.path} does not say where the goal is (no 'goal' in its "
-                f"flylog.simulation metadata): give it with --goal X,Y"
+                f"flylog.simulation metadata): the goal must be given"
             )
-            raise LogError(msg)
+            raise LogError(msg, parameter="goal")
         goal = tuple(float(v) for v in json.loads(meta["goal"]))  # type: ignore[assignment]
     assert goal is not None
+    if len(goal) != 2 or not all(math.isfinite(v) for v in goal):
+        msg = f"the goal must be two finite coordinates x, y in metres, got {list(goal)}"
+        raise LogError(msg, parameter="goal")
     return ReplayInputs(
         rig=rig,
         frame_period_ns=round(1e9 / rig.frame_rate),

@@ -2,15 +2,17 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from flylog.budget import DEFAULT_LIMITS, Limits, check_sampling_rates, replay_estimate
 from flylog.config import to_mapping
-from flylog.errors import LogError
 from flylog.io import contract
+from flylog.io.collisions import Role, check_outputs
 from flylog.io.tables import Column, TableWriter
 from flylog.io.writer import Compression, LogWriter
 from flylog.replay.clock import ClockConfig, VirtualClock
@@ -107,19 +109,24 @@ def replay(
     goal: tuple[float, float] | None = None,
     bag: BagOptions | None = None,
     on_progress: Callable[[float, float], None] | None = None,
+    limits: Limits = DEFAULT_LIMITS,
 ) -> ReplaySummary:
     """Replay ``log`` (a flylog log or a ROS 2 bag, read with ``bag``'s options) and write
     ``output`` (MCAP) and its per-step table (Parquet), both atomically: after a failure
     neither exists. ``on_progress(done_s, total_s)`` in log time. Without a goal (a bag
-    without one, and no ``goal``), the planner's outputs are not written."""
+    without one, and no ``goal``), the planner's outputs are not written. A job whose
+    estimated output or memory is over ``limits`` is refused before it starts."""
     t0 = time.perf_counter()
     table = table_path(output)
-    if table == Path(log) or output == Path(log):
-        msg = f"replay would overwrite its input {log}: choose another --output"
-        raise LogError(msg)
+    check_outputs(
+        [Role(Path(log), "the sensor log", "log")],
+        [Role(Path(output), "the run", "output"), Role(table, "the step table", "output")],
+    )
     source = open_source(Path(log), goal=goal, bag=bag)
     inputs = source.inputs
     duration = (inputs.end_ns - inputs.start_ns) / 1e9
+    check_sampling_rates(config, inputs.rig.frame_rate, source=f"the log {log}")
+    replay_estimate(config, inputs.rig, duration).check(limits)
     existed = table.exists()
     try:
         with (
@@ -165,7 +172,8 @@ def replay(
             )
     except BaseException:
         if not existed:
-            table.unlink(missing_ok=True)
+            with contextlib.suppress(OSError):  # the error being raised says why
+                table.unlink(missing_ok=True)
         raise
     return ReplaySummary(
         output=output,

@@ -114,7 +114,7 @@ from pathlib import Path
 
 import numpy as np
 
-from flylog.config import from_mapping, read_toml
+from flylog.config import from_mapping, problems_message, read_toml
 from flylog.errors import ConfigError
 from flylog.geometry import Pose2D
 from flylog.scene.footprints import Footprints, compile_footprints, distance_to_footprints
@@ -128,6 +128,8 @@ from flylog.scene.spec import (
 
 # Rejection sampling gives up after this many candidates per requested obstacle.
 _CLUTTER_TRIES_PER_OBSTACLE = 200
+# A point closer than this to a footprint is inside it (m).
+_INSIDE = 1e-9
 
 
 @dataclass(frozen=True)
@@ -168,14 +170,49 @@ def parse_scene(text: str, source: str) -> Scene:
         raise ConfigError(msg) from None
     spec = from_mapping(SceneSpec, data, source=source)
     placed = place_clutter(spec, source=source) if spec.clutter is not None else ()
-    return Scene(spec=spec, obstacles=spec.obstacles + placed, source=source, text=text)
+    scene = Scene(spec=spec, obstacles=spec.obstacles + placed, source=source, text=text)
+    problems = placement_problems(scene)
+    if problems:
+        raise ConfigError(problems_message(source, problems))
+    return scene
+
+
+def _obstacle_name(scene: Scene, index: int) -> str:
+    given = len(scene.spec.obstacles)
+    return f"obstacles[{index}]" if index < given else f"clutter obstacle {index - given}"
+
+
+def placement_problems(scene: Scene) -> list[str]:
+    """What makes a scene impossible to drive: an obstacle over the robot at its start (its
+    footprint within ``robot.radius`` of the start position), a goal inside an obstacle."""
+    if not scene.obstacles:
+        return []
+    robot = scene.spec.robot
+    points = np.array([robot.start[:2], robot.goal], dtype=float)
+    clear = (max(robot.radius, _INSIDE), _INSIDE)  # distances are 0 inside a footprint
+    if np.all(distance_to_footprints(scene.footprints, points) >= clear):
+        return []  # the common case: one query over all obstacles
+    problems = []
+    for i, obstacle in enumerate(scene.obstacles):
+        start, goal = distance_to_footprints(compile_footprints([obstacle]), points)
+        name = _obstacle_name(scene, i)
+        if start < clear[0]:
+            problems.append(
+                f"{name} lies over the robot's start {list(robot.start[:2])} (closer than "
+                f"robot.radius = {robot.radius} m): move it or 'robot.start'"
+            )
+        if goal < clear[1]:
+            problems.append(
+                f"field 'robot.goal': {list(robot.goal)} is inside {name}: move the goal"
+            )
+    return problems
 
 
 def load_scene(path: str | Path) -> Scene:
     """Load a scene file (see this module's docstring for the format)."""
     path = Path(path)
-    read_toml(path)  # a missing or malformed file: the same messages as every config
-    return parse_scene(path.read_text(encoding="utf-8"), source=str(path))
+    read_toml(path)  # a missing, unreadable or malformed file: the messages of every config
+    return parse_scene(path.read_bytes().decode("utf-8"), source=str(path))
 
 
 def distance_to_obstacles(scene: Scene, xy: np.ndarray) -> np.ndarray:
@@ -227,8 +264,8 @@ def _random_obstacle(
     x0, y0, x1, y1 = area
     center = (float(rng.uniform(x0, x1)), float(rng.uniform(y0, y1)))
     height = float(rng.uniform(*cl.height_range))
-    r, g, b = (float(c) for c in rng.uniform(0.2, 0.9, 3))
-    color = (r, g, b)
+    red, green, blue = (float(c) for c in rng.uniform(0.2, 0.9, 3))
+    color = (red, green, blue)
     texture = TextureConfig(color=color, feature_size=cl.feature_size, contrast=cl.contrast)
     if rng.uniform() < cl.cylinder_fraction:
         radius = float(rng.uniform(*cl.size_range)) / 2.0

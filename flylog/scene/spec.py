@@ -7,6 +7,7 @@ import math
 from dataclasses import dataclass
 
 from flylog.config import param
+from flylog.errors import ConfigError
 from flylog.geometry import StereoRig
 from flylog.sensors import SonarConfig
 from flylog.sim.kinematics import OdometryConfig
@@ -31,7 +32,7 @@ class TextureConfig:
     def __post_init__(self) -> None:
         if not all(0.0 <= c <= 1.0 for c in self.color):
             msg = f"texture color must have components in [0, 1], got {list(self.color)}"
-            raise ValueError(msg)
+            raise ConfigError(msg)
 
 
 @dataclass(frozen=True)
@@ -104,16 +105,16 @@ class ObstacleConfig:
             given = getattr(self, name) is not None
             if name in needs and not given:
                 msg = f"a {self.kind.value} needs '{name}' (it takes {' and '.join(needs)})"
-                raise ValueError(msg)
+                raise ConfigError(msg)
             if name not in needs and given:
                 msg = f"a {self.kind.value} takes {' and '.join(needs)}, not '{name}'"
-                raise ValueError(msg)
+                raise ConfigError(msg)
         if self.size is not None and min(self.size) <= 0.0:
             msg = f"'size' must be positive, got {list(self.size)}"
-            raise ValueError(msg)
+            raise ConfigError(msg)
         if self.start is not None and self.start == self.end:
             msg = "a wall's 'start' and 'end' must differ"
-            raise ValueError(msg)
+            raise ConfigError(msg)
 
 
 @dataclass(frozen=True)
@@ -142,12 +143,12 @@ class ClutterConfig:
         x0, y0, x1, y1 = self.area
         if not (x0 < x1 and y0 < y1):
             msg = f"'area' must be xmin, ymin, xmax, ymax with min < max, got {list(self.area)}"
-            raise ValueError(msg)
+            raise ConfigError(msg)
         for name in ("size_range", "height_range"):
             lo, hi = getattr(self, name)
             if not 0.0 < lo <= hi:
                 msg = f"'{name}' must be 0 < min <= max, got {[lo, hi]}"
-                raise ValueError(msg)
+                raise ConfigError(msg)
 
 
 @dataclass(frozen=True)
@@ -197,11 +198,11 @@ class DriveConfig:
     def __post_init__(self) -> None:
         if self.waypoints and self.commands:
             msg = "give either 'waypoints' or 'commands', not both"
-            raise ValueError(msg)
+            raise ConfigError(msg)
         times = [c.t_start for c in self.commands]
         if times != sorted(times):
             msg = f"'commands' must be in increasing t_start, got {times}"
-            raise ValueError(msg)
+            raise ConfigError(msg)
 
 
 @dataclass(frozen=True)

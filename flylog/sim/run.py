@@ -24,10 +24,12 @@ from typing import Protocol
 
 import numpy as np
 
+from flylog.budget import DEFAULT_LIMITS, Estimate, Limits, simulation_estimate
 from flylog.config import to_mapping
 from flylog.geometry import Pose2D
 from flylog.geometry.poses import yaw_quaternion
 from flylog.io import contract, encode
+from flylog.io.collisions import Role, check_outputs
 from flylog.io.decode import yaw_of
 from flylog.io.writer import LogConfig, LogWriter
 from flylog.scene.load import Scene
@@ -66,6 +68,7 @@ class SimulationOptions:
     resolution: tuple[int, int] | None = None  # (width, height) overriding the scene's
     frame_rate: float | None = None  # Hz overriding the scene's
     log: LogConfig = LogConfig()
+    limits: Limits = DEFAULT_LIMITS  # the job is refused before it starts if over them
 
 
 @dataclass(frozen=True)
@@ -97,6 +100,17 @@ def simulation_duration(scene: Scene, options: SimulationOptions) -> float:
     return scene.spec.duration if scene.spec.duration is not None else DEFAULT_DURATION
 
 
+def simulation_budget(scene: Scene, options: SimulationOptions) -> Estimate:
+    """The output size and peak memory of simulating ``scene`` with ``options``."""
+    spec = effective_scene(scene, options).spec
+    return simulation_estimate(
+        spec.camera,
+        simulation_duration(scene, options),
+        sonar_rate=spec.sonar.rate,
+        odometry_rate=spec.odometry.rate,
+    )
+
+
 def _schedule(rate: float, end_ns: int) -> list[int]:
     period = 1e9 / rate
     return [round(k * period) for k in range(math.floor(end_ns / period + 1e-9) + 1)]
@@ -121,6 +135,9 @@ def simulate(
     from flylog.sim.sonar import sonar_ranges
 
     t_wall = time.perf_counter()
+    scene_file = [Role(Path(scene.source), "the scene", "scene")] if scene.source else []
+    check_outputs(scene_file, [Role(Path(output), "the log", "output")])
+    simulation_budget(scene, options).check(options.limits)
     scene = effective_scene(scene, options)
     spec = scene.spec
     rig, sonar_cfg, odo_cfg = spec.camera, spec.sonar, spec.odometry

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from flylog.errors import LogError
+from flylog.errors import LogError, OutputError
 from flylog.geometry import Pose2D
 from flylog.io import Compression, LogConfig, LogWriter, contract, encode, open_log
 from flylog.io.contract import CommandStatus
@@ -104,7 +104,7 @@ def test_refuses_use_outside_a_block_and_bad_places(tmp_path):
     writer = LogWriter(tmp_path / "x.mcap")
     with pytest.raises(LogError, match="inside a `with` block"):
         writer.write(contract.ODOM, 0, odom(0))
-    with pytest.raises(LogError, match="does not exist"), LogWriter(tmp_path / "no" / "x.mcap"):
+    with pytest.raises(OutputError, match="does not exist"), LogWriter(tmp_path / "no" / "x.mcap"):
         pass
     with LogWriter(tmp_path / "y.mcap") as log, pytest.raises(LogError, match="strings"):
         log.add_metadata("run", {"seed": 3})  # type: ignore[dict-item]

@@ -70,10 +70,10 @@ def test_several_runs_per_side_compare_means_with_spread():
 
 def test_tolerances_from_toml_and_overrides(tmp_path):
     path = tmp_path / "tol.toml"
-    path.write_text('[precision]\nabsolute = 0.1\n[new_metric]\ndirection = "lower"\n')
+    path.write_text('[precision]\nabsolute = 0.1\n[rpe_deg]\ndirection = "lower"\n')
     tol = load_tolerances(path)
     assert tol["precision"] == Tolerance(Direction.HIGHER, absolute=0.1)
-    assert tol["new_metric"].direction is Direction.LOWER
+    assert tol["rpe_deg"].direction is Direction.LOWER  # a metric without a default
     assert tol["ate_m"] == DEFAULT_TOLERANCES["ate_m"]
     tol = override_tolerance(tol, "ate_m=25%")
     assert tol["ate_m"] == Tolerance(Direction.LOWER, absolute=0.0, relative=0.25)

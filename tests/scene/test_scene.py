@@ -103,6 +103,9 @@ kind = "wall"
 start = [0.0, 20.0]
 end = [10.0, 20.0]
 thickness = 0.2
+[robot]  # clear of the obstacles: a scene with one over the start or the goal is refused
+start = [5.0, 10.0, 0.0]
+goal = [5.0, -10.0]
 """
     scene = parse_scene(text, "mem")
     assert [o.kind for o in scene.obstacles] == list(ObstacleKind)

@@ -1,0 +1,79 @@
+"""SIGTERM and SIGHUP end a command as Ctrl-C does (no partial output, one line, exit
+128 + signal); after a SIGKILL the next writer of the same output removes the stale part."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from tests.reliability.conftest import LOG, SCENE
+
+# Polling for the writer's temporary file: how long to wait before giving up (the command
+# imports numba and loads its cache first, seconds on a loaded machine).
+WAIT_FOR_PART_S = 120.0
+
+
+def _flylog(*args: str, cwd: Path) -> subprocess.Popen[str]:
+    code = "from flylog.cli.main import main; main()"
+    env = {k: v for k, v in os.environ.items() if k != "FLYLOG_DEBUG"}
+    return subprocess.Popen(
+        [sys.executable, "-c", code, *args],
+        cwd=cwd,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
+
+
+def _parts(directory: Path) -> list[str]:
+    return sorted(p.name for p in directory.glob(".*.part"))
+
+
+def _wait_for_part(process: subprocess.Popen[str], directory: Path) -> None:
+    deadline = time.monotonic() + WAIT_FOR_PART_S
+    while not _parts(directory):
+        if process.poll() is not None or time.monotonic() > deadline:
+            process.kill()
+            _, err = process.communicate()
+            pytest.fail(f"the command wrote no .part file (exit {process.returncode}): {err}")
+        time.sleep(0.05)
+
+
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGHUP])
+def test_a_stop_signal_removes_the_partial_outputs_of_replay(tmp_path, signum):
+    """Replay writes from three threads; 2000 generations a frame keep it busy long
+    enough to be stopped half-way."""
+    shutil.copy(LOG, tmp_path / "log.mcap")
+    process = _flylog("replay", "log.mcap", "-o", "run.mcap", "--generations-per-frame",
+                      "2000", cwd=tmp_path)  # fmt: skip
+    _wait_for_part(process, tmp_path)
+    process.send_signal(signum)
+    _, err = process.communicate(timeout=WAIT_FOR_PART_S)
+    assert process.returncode == 128 + signum
+    name = signal.Signals(signum).name
+    assert err.strip().splitlines() == [f"stopped by {name}: no output was written"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["log.mcap"]
+
+
+def test_after_a_sigkill_the_next_run_removes_the_stale_part(tmp_path):
+    shutil.copy(SCENE, tmp_path / "s.toml")
+    args = ("simulate", "s.toml", "-o", "out.mcap", "--resolution", "16x16")
+    process = _flylog(*args, "--duration", "600", cwd=tmp_path)
+    _wait_for_part(process, tmp_path)
+    process.kill()
+    process.communicate()
+    (stale,) = _parts(tmp_path)
+    assert stale.startswith(f".out.mcap.{process.pid}-")
+    again = _flylog(*args, "--duration", "0.1", cwd=tmp_path)
+    _, err = again.communicate(timeout=WAIT_FOR_PART_S)
+    assert again.returncode == 0, err
+    assert _parts(tmp_path) == []
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.mcap", "s.toml"]
