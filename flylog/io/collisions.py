@@ -4,6 +4,8 @@ of its outputs, or whose directory is not writable.
 Two paths name the same file when the file exists and ``os.path.samefile`` says so (it
 follows symbolic links and sees hard links), or when their resolved paths (symbolic links
 followed, ``..`` removed) are equal: that is the case of an output that does not exist yet.
+An input that is a directory (a rosbag2 bag) holds every path inside it: an output there
+would change the bag's files.
 """
 
 from __future__ import annotations
@@ -34,6 +36,14 @@ def same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> bool:
         return os.path.realpath(a) == os.path.realpath(b)
 
 
+def inside(path: str | os.PathLike[str], directory: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` is (or, once written, will be) a file inside the existing directory
+    ``directory``, at any depth."""
+    if not os.path.isdir(directory):
+        return False
+    return Path(os.path.realpath(directory)) in Path(os.path.realpath(path)).parents
+
+
 def check_outputs(inputs: Iterable[Role], outputs: Iterable[Role]) -> None:
     """Raise OutputError if an output is an input or another output (naming both files),
     or if its directory exists but cannot be written to; ``parameter`` is the output's.
@@ -50,6 +60,12 @@ def check_outputs(inputs: Iterable[Role], outputs: Iterable[Role]) -> None:
                 msg = (
                     f"{out.what} {out.path} would overwrite {inp.what} {inp.path}: "
                     "they are the same file"
+                )
+                raise OutputError(msg, parameter=out.parameter)
+            if inside(out.path, inp.path):
+                msg = (
+                    f"{out.what} {out.path} would be written inside {inp.what} {inp.path}, "
+                    "a directory that is read"
                 )
                 raise OutputError(msg, parameter=out.parameter)
         for other in outputs[:i]:

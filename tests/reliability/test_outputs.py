@@ -81,6 +81,19 @@ def test_check_outputs_names_the_output_parameter(tmp_path):
     check_outputs([Role(log, "the log", "log")], [Role(tmp_path / "other", "a", "out")])
 
 
+def test_an_output_inside_an_input_directory_is_refused(tmp_path):
+    bag = tmp_path / "bag"
+    bag.mkdir()
+    (bag / "metadata.yaml").write_text("rosbag2_bagfile_information: {}\n")
+    inputs = [Role(bag, "the sensor log", "log")]
+    for out in (bag / "metadata.yaml", bag / "new.mcap", tmp_path / "x" / ".." / "bag" / "r"):
+        with pytest.raises(OutputError, match="inside the sensor log") as info:
+            check_outputs(inputs, [Role(out, "the run", "output")])
+        assert info.value.parameter == "output"
+    check_outputs(inputs, [Role(tmp_path / "bag.mcap", "the run", "output")])
+    check_outputs(inputs, [Role(tmp_path / "bagx" / "r.mcap", "the run", "output")])
+
+
 @pytest.mark.parametrize(
     "args",
     [
