@@ -41,6 +41,7 @@ from flylog.config import param
 from flylog.fly.fitness import as_planes, rig_constants
 from flylog.fly.fusion import moved_by_odometry
 from flylog.geometry import Pose2D, StereoRig
+from flylog.geometry.kernels import CX, CX_RIGHT, CY, FOCAL, optical
 
 
 @dataclass(frozen=True)
@@ -239,12 +240,12 @@ def depth_insensitive(
     (each moved along its ray): where the motion is mostly parallax (driving, a near fly off
     the image centre), a depth error reads as yaw."""
     u_left, u_right, v, depth = rig.project(xyz)
-    disparity = u_left - u_right
+    disparity = u_left - u_right + rig.doffs  # f·B/Z
     after = rig.project(moved_by_odometry(xyz, increment))[0]
     ok = depth > 0
     for error in (-disparity_error, disparity_error):
         shifted = np.maximum(disparity + error, 1e-6)
-        moved = rig.backproject(u_left, v, rig.focal_px * rig.baseline / shifted)
+        moved = rig.backproject(u_left, v, rig.fb / shifted)
         ok &= np.abs(rig.project(moved_by_odometry(moved, increment))[0] - after) <= parallax
     return ok
 
@@ -343,7 +344,7 @@ def _yaw_scores_kernel(lk, rk, l1, r1, channels, xyz, moved, offsets, k, window,
                        out):  # fmt: skip  # pragma: no cover - compiled
     """:func:`yaw_scores_numpy`'s sums; ``moved``: the points after the odometry increment
     (before the extra yaw), all comparable; images as (H, W·C) uint8 rows."""
-    focal, cx, cy, half_b, mount_x, mount_h = k[0], k[1], k[2], k[3], k[4], k[5]
+    focal, cx, cy, cx_right = k[FOCAL], k[CX], k[CY], k[CX_RIGHT]
     h = window // 2
     n = window * window
     size = n * channels
@@ -354,10 +355,10 @@ def _yaw_scores_kernel(lk, rk, l1, r1, channels, xyz, moved, offsets, k, window,
     weight = np.empty(m)
     centre = (h * window + h) * channels
     for i in range(m):
-        depth = xyz[i, 0] - mount_x
-        v = cy - focal * (xyz[i, 2] - mount_h) / depth
-        _sample(lk, channels, cx - focal * (xyz[i, 1] - half_b) / depth, v, h, left_k[i])
-        _sample(rk, channels, cx - focal * (xyz[i, 1] + half_b) / depth, v, h, right_k[i])
+        a, b, depth, ar = optical(k, xyz[i, 0], xyz[i, 1], xyz[i, 2])
+        v = cy + focal * b / depth
+        _sample(lk, channels, cx + focal * a / depth, v, h, left_k[i])
+        _sample(rk, channels, cx_right + focal * ar / depth, v, h, right_k[i])
         grad2 = 0.0
         for ch in range(channels):
             gx = left_k[i, centre + channels + ch] - left_k[i, centre - channels + ch]
@@ -371,11 +372,11 @@ def _yaw_scores_kernel(lk, rk, l1, r1, channels, xyz, moved, offsets, k, window,
         for i in range(m):
             x = c * moved[i, 0] + s * moved[i, 1]
             y = -s * moved[i, 0] + c * moved[i, 1]
-            depth = x - mount_x
-            v = cy - focal * (moved[i, 2] - mount_h) / depth
-            _sample(l1, channels, cx - focal * (y - half_b) / depth, v, h, sample)
+            a, b, depth, ar = optical(k, x, y, moved[i, 2])
+            v = cy + focal * b / depth
+            _sample(l1, channels, cx + focal * a / depth, v, h, sample)
             zl = _zssd(left_k[i], sample, channels, n)
-            _sample(r1, channels, cx - focal * (y + half_b) / depth, v, h, sample)
+            _sample(r1, channels, cx_right + focal * ar / depth, v, h, sample)
             zr = _zssd(right_k[i], sample, channels, n)
             total += weight[i] * (1.0 / (zl + g) + 1.0 / (zr + g))
         out[j] = total

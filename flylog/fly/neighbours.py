@@ -8,6 +8,7 @@ import numba
 import numpy as np
 
 from flylog.fly.fitness import INVALID_FITNESS
+from flylog.geometry.kernels import project
 
 
 def neighbour_counts_numpy(
@@ -128,15 +129,13 @@ def fly_neighbour_counts_into(xyz, k, fitness, radius, grid, ints, uv, counts): 
     """The same counts for the flies themselves: valid = fitness > INVALID_FITNESS, (u, v)
     their left projections (``StereoRig.project``'s numbers, ``k`` from
     :func:`~flylog.fly.fitness.rig_constants`); scratch as for :func:`neighbour_counts_into`."""
-    focal, cx, cy, half_b, mount_x, mount_h = k[0], k[1], k[2], k[3], k[4], k[5]
     m = 0
     for i in range(xyz.shape[0]):
         counts[i] = 0
         if fitness[i] > INVALID_FITNESS:
-            depth = xyz[i, 0] - mount_x
-            safe = depth if depth > 1e-9 else 1e-9
-            uv[0, m, 0] = cx - focal * (xyz[i, 1] - half_b) / safe
-            uv[0, m, 1] = cy - focal * (xyz[i, 2] - mount_h) / safe
+            u, _, v, _ = project(k, xyz[i, 0], xyz[i, 1], xyz[i, 2])
+            uv[0, m, 0] = u
+            uv[0, m, 1] = v
             ints[0, m] = i
             m += 1
     if m > 0:

@@ -11,6 +11,7 @@ import numpy as np
 from flylog.fly.fusion import sonar_immigrants_into
 from flylog.fly.sorting import median_radix, select_radix
 from flylog.geometry import StereoRig
+from flylog.geometry.kernels import RIG_SIZE, backproject, project
 
 
 def survivor_indices(shared_fitness: np.ndarray, keep: int) -> np.ndarray:
@@ -119,8 +120,9 @@ def mutated(
 
 def _mutated_by(noise, xyz, rig, sigma_px, sigma_disparity_px, d_min, d_max) -> np.ndarray:
     u_left, u_right, v, _ = rig.project(xyz)
-    fb = rig.focal_px * rig.baseline
-    disparity = np.clip(u_left - u_right + sigma_disparity_px * noise[:, 2], fb / d_max, fb / d_min)
+    fb = rig.fb
+    measured = u_left - u_right + rig.doffs  # f·B/Z
+    disparity = np.clip(measured + sigma_disparity_px * noise[:, 2], fb / d_max, fb / d_min)
     return rig.backproject(
         u_left + sigma_px * noise[:, 0], v + sigma_px * noise[:, 1], fb / disparity
     )
@@ -225,13 +227,10 @@ def newcomers_numpy(
 
 def newcomer_constants(rig: StereoRig, d_min: float, d_max: float, margin: int) -> np.ndarray:
     """What :func:`newcomers_into` needs of the rig and the search box, as one float64 array."""
-    fb = rig.focal_px * rig.baseline
-    return np.array(
-        [rig.focal_px, rig.cx, rig.cy, rig.baseline / 2.0, rig.mount_x, rig.mount_height,
-         fb / d_max, fb / d_min, margin, rig.width - 1 - margin, margin,
-         rig.height - 1 - margin, 1.0 / d_max, 1.0 / d_min],
-        dtype=np.float64,
-    )  # fmt: skip
+    fb = rig.fb
+    extra = [fb / d_max, fb / d_min, margin, rig.width - 1 - margin, margin,
+             rig.height - 1 - margin, 1.0 / d_max, 1.0 / d_min, fb, rig.doffs]  # fmt: skip
+    return np.concatenate([rig.constants(), np.array(extra, dtype=np.float64)])
 
 
 @numba.njit(cache=True, nogil=True)
@@ -241,21 +240,17 @@ def newcomers_into(
     """Same flies as :func:`newcomers_numpy`, from the same draws, written into ``children``
     and ``uniform`` (``k`` from :func:`newcomer_constants`); one pass per block of draws,
     no allocation but two small scratch arrays."""
-    f, cx, cy, half_b, mount_x, mount_h = k[0], k[1], k[2], k[3], k[4], k[5]
-    lo, hi = k[6], k[7]
-    fb = f * (2.0 * half_b)
+    lo, hi = k[RIG_SIZE], k[RIG_SIZE + 1]
+    fb, doffs = k[RIG_SIZE + 8], k[RIG_SIZE + 9]
     # uniform immigrants: rng.uniform(low, high) is low + (high − low)·U
     n_u = uniform.shape[0]
     for j in range(3):
-        low, high = k[8 + 2 * j], k[9 + 2 * j]
+        low, high = k[RIG_SIZE + 2 + 2 * j], k[RIG_SIZE + 3 + 2 * j]
         for i in range(n_u):
             uniform[i, j] = low + (high - low) * rng.random()
     for i in range(n_u):
-        depth = 1.0 / uniform[i, 2]
-        u, v = uniform[i, 0], uniform[i, 1]
-        uniform[i, 0] = mount_x + depth
-        uniform[i, 1] = half_b - (u - cx) * depth / f
-        uniform[i, 2] = mount_h - (v - cy) * depth / f
+        x, y, z = backproject(k, uniform[i, 0], uniform[i, 1], 1.0 / uniform[i, 2])
+        uniform[i, 0], uniform[i, 1], uniform[i, 2] = x, y, z
     n = children.shape[0]
     m = parents.shape[0]
     which = np.empty(n)
@@ -288,19 +283,11 @@ def newcomers_into(
     for t in range(n_mutate):
         i = mutate[t]
         a = pick[i, 0]
-        depth = parents[a, 0] - mount_x
-        safe = depth if depth > 1e-9 else 1e-9
-        u_left = cx - f * (parents[a, 1] - half_b) / safe
-        u_right = cx - f * (parents[a, 1] + half_b) / safe
-        v = cy - f * (parents[a, 2] - mount_h) / safe
+        u_left, u_right, v, _ = project(k, parents[a, 0], parents[a, 1], parents[a, 2])
         n_u_, n_v, n_d = rng.standard_normal(), rng.standard_normal(), rng.standard_normal()
-        disparity = min(max(u_left - u_right + sigma_disparity_px * n_d, lo), hi)
-        z = fb / disparity
-        uu = u_left + sigma_px * n_u_
-        vv = v + sigma_px * n_v
-        children[i, 0] = mount_x + z
-        children[i, 1] = half_b - (uu - cx) * z / f
-        children[i, 2] = mount_h - (vv - cy) * z / f
+        disparity = min(max(u_left - u_right + doffs + sigma_disparity_px * n_d, lo), hi)
+        x, y, z = backproject(k, u_left + sigma_px * n_u_, v + sigma_px * n_v, fb / disparity)
+        children[i, 0], children[i, 1], children[i, 2] = x, y, z
     for t in range(n_two):
         i = two[t]
         a, b = pick[i, 0], pick[i, 1]
