@@ -6,7 +6,14 @@ from pathlib import Path
 
 import click
 
-from flylog.cli.common import human_bytes, progress_bar, reports_errors, resolution, stdout
+from flylog.cli.common import (
+    human_bytes,
+    principal_point,
+    progress_bar,
+    reports_errors,
+    resolution,
+    stdout,
+)
 
 
 @click.command()
@@ -49,6 +56,38 @@ from flylog.cli.common import human_bytes, progress_bar, reports_errors, resolut
     help="Stereo pairs per second. [default: the scene's camera.frame_rate, 15 Hz]",
 )
 @click.option(
+    "--tilt",
+    type=click.FloatRange(-60.0, 60.0),
+    default=None,
+    metavar="DEG",
+    help="Downward pitch of the cameras' optical axes in degrees. [default: the scene's "
+    "camera.tilt, 0]",
+)
+@click.option(
+    "--roll",
+    type=click.FloatRange(-45.0, 45.0),
+    default=None,
+    metavar="DEG",
+    help="Roll of the cameras about their optical axis in degrees (positive lowers the "
+    "right camera). [default: the scene's camera.roll, 0]",
+)
+@click.option(
+    "--principal-point",
+    callback=principal_point,
+    default=None,
+    metavar="CX,CY",
+    help="Left camera's principal point in pixels of the output resolution. [default: the "
+    "scene's camera.principal_point, else the image centre ((W-1)/2, (H-1)/2)]",
+)
+@click.option(
+    "--doffs",
+    type=float,
+    default=None,
+    metavar="PX",
+    help="Right camera's principal point x minus the left's in pixels (disparity = "
+    "f·B/Z − doffs). [default: the scene's camera.doffs, 0]",
+)
+@click.option(
     "--compression",
     type=click.Choice(["zstd", "lz4", "none"]),
     default="lz4",
@@ -80,6 +119,10 @@ def simulate(
     seed: int,
     resolution: tuple[int, int] | None,
     frame_rate: float | None,
+    tilt: float | None,
+    roll: float | None,
+    principal_point: tuple[float, float] | None,
+    doffs: float | None,
     compression: str,
     drive: str,
     config_file: Path | None,
@@ -98,6 +141,16 @@ def simulate(
         resolution=resolution,
         frame_rate=frame_rate,
         log=LogConfig(compression=Compression(compression)),
+        camera=tuple(
+            (name, value)
+            for name, value in (
+                ("tilt", tilt),
+                ("roll", roll),
+                ("principal_point", principal_point),
+                ("doffs", doffs),
+            )
+            if value is not None
+        ),
     )
     make_driver = None
     if drive == "planner":

@@ -51,8 +51,16 @@ def block_rig(rig: StereoRig, block: int) -> StereoRig:
     if rig.width % block or rig.height % block:
         msg = f"blocks of {block} px do not tile a {rig.width}x{rig.height} image"
         raise ValueError(msg)
+    pp = rig.principal_point
+    if pp is not None:  # block j's centre ray is pixel b·j + (b − 1)/2's
+        pp = ((pp[0] - (block - 1) / 2) / block, (pp[1] - (block - 1) / 2) / block)
     return dataclasses.replace(
-        rig, width=rig.width // block, height=rig.height // block, focal_px=rig.focal_px / block
+        rig,
+        width=rig.width // block,
+        height=rig.height // block,
+        focal_px=rig.focal_px / block,
+        principal_point=pp,
+        doffs=rig.doffs / block,
     )
 
 
