@@ -61,7 +61,7 @@ def stereo_matcher(config: SgbmConfig) -> cv2.StereoSGBM:
     """The OpenCV matcher the configuration describes."""
     channels = 1 if config.grey else 3
     area = channels * config.block_size**2
-    return cv2.StereoSGBM_create(
+    return cv2.StereoSGBM_create(  # type: ignore[attr-defined]
         minDisparity=0,
         numDisparities=config.num_disparities,
         blockSize=config.block_size,

@@ -252,7 +252,7 @@ def yaw_scores_numba(
     xyz = np.ascontiguousarray(xyz, dtype=np.float64)
     moved = np.ascontiguousarray(moved_by_odometry(xyz, increment), dtype=np.float64)
     out = np.empty(len(offsets))
-    _yaw_scores_kernel(*rows, channels, xyz, moved, np.asarray(offsets, np.float64),
+    _yaw_scores_kernel(*rows, channels, xyz, moved, np.asarray(offsets, np.float64),  # type: ignore[call-arg]
                        rig_constants(rig), window, float(guard), out)  # fmt: skip
     return out
 
