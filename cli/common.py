@@ -251,6 +251,23 @@ def limit_options(fn: F) -> F:
     return fn
 
 
+def principal_point(
+    ctx: click.Context, param: click.Parameter, value: str | None
+) -> tuple[float, float] | None:
+    """Parse ``CX,CY`` (pixels) for --principal-point."""
+    if value is None:
+        return None
+    try:
+        cx, cy = (float(p) for p in value.split(","))
+    except ValueError:
+        msg = f"expected CX,CY in pixels, e.g. 319.5,239.5, got {value!r}"
+        raise click.BadParameter(msg) from None
+    if not (math.isfinite(cx) and math.isfinite(cy)):
+        msg = f"expected finite CX,CY in pixels, got {value!r}"
+        raise click.BadParameter(msg)
+    return cx, cy
+
+
 def human_bytes(n: float) -> str:
     for unit in ("B", "KiB", "MiB", "GiB"):
         if n < 1024 or unit == "GiB":

@@ -10,6 +10,7 @@ from flylog.cli.common import (
     Finite,
     human_bytes,
     limit_options,
+    principal_point,
     progress_bar,
     reports_errors,
     resolution,
@@ -59,6 +60,38 @@ from flylog.geometry.stereo import MAX_FRAME_RATE
     "camera.frame_rate, 15 Hz]",
 )
 @click.option(
+    "--tilt",
+    type=Finite(-60.0, 60.0),
+    default=None,
+    metavar="DEG",
+    help="Downward pitch of the cameras' optical axes in degrees. [default: the scene's "
+    "camera.tilt, 0]",
+)
+@click.option(
+    "--roll",
+    type=Finite(-45.0, 45.0),
+    default=None,
+    metavar="DEG",
+    help="Roll of the cameras about their optical axis in degrees (positive lowers the "
+    "right camera). [default: the scene's camera.roll, 0]",
+)
+@click.option(
+    "--principal-point",
+    callback=principal_point,
+    default=None,
+    metavar="CX,CY",
+    help="Left camera's principal point in pixels of the output resolution. [default: the "
+    "scene's camera.principal_point, else the image centre ((W-1)/2, (H-1)/2)]",
+)
+@click.option(
+    "--doffs",
+    type=Finite(),
+    default=None,
+    metavar="PX",
+    help="Right camera's principal point x minus the left's in pixels (disparity = "
+    "f·B/Z − doffs). [default: the scene's camera.doffs, 0]",
+)
+@click.option(
     "--compression",
     type=click.Choice(["zstd", "lz4", "none"]),
     default="lz4",
@@ -91,6 +124,10 @@ def simulate(
     seed: int,
     resolution: tuple[int, int] | None,
     frame_rate: float | None,
+    tilt: float | None,
+    roll: float | None,
+    principal_point: tuple[float, float] | None,
+    doffs: float | None,
     compression: str,
     drive: str,
     config_file: Path | None,
@@ -122,6 +159,16 @@ def simulate(
         frame_rate=frame_rate,
         log=LogConfig(compression=Compression(compression)),
         limits=Limits(max_output_size=max_output_size, max_memory=max_memory),
+        camera=tuple(
+            (name, value)
+            for name, value in (
+                ("tilt", tilt),
+                ("roll", roll),
+                ("principal_point", principal_point),
+                ("doffs", doffs),
+            )
+            if value is not None
+        ),
     )
     make_driver = None
     if drive == "planner":

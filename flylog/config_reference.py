@@ -76,7 +76,11 @@ def config_files() -> tuple[ConfigFile, ...]:
 
 # Dataclasses with `param` fields that no file sets: their fields are command-line options
 # (each documented by the command's --help), so they are not in configuration.md.
-OPTIONS_ONLY = ("flylog.experiments.common.ExperimentOptions", "flylog.io.writer.LogConfig")
+OPTIONS_ONLY = (
+    "flylog.experiments.common.ExperimentOptions",
+    "flylog.io.writer.LogConfig",
+    "flylog.ros2.config.BagOptions",  # replay's --topic, --pair-tolerance, --sonar-window
+)
 
 
 def qualified_name(cls: type) -> str:

@@ -7,10 +7,12 @@ the newest stereo pair completely:
 
 1. dense disparity with ``cv2.StereoSGBM`` (left image as reference, sub-pixel, with
    OpenCV's uniqueness, left-right and speckle checks);
-2. the *valid* pixels: a disparity at least focal·baseline / ``max_depth``;
+2. the *valid* pixels: a disparity d at least focal·baseline / ``max_depth`` − doffs (d =
+   f·B/Z − doffs, the rig's right-camera offset);
 3. ``points`` of them, evenly spaced in raster order (every k-th valid pixel, so the cloud
    covers the valid pixels with a uniform density and is the same for the same images);
-4. back-projected with :meth:`StereoRig.backproject` into base_link, then moved by the
+4. at depth f·B/(d + doffs), back-projected with :meth:`StereoRig.backproject` (principal
+   point and mount pose included) into base_link, then moved by the
    odometry received since the pair was set, so the cloud is in the current robot frame.
 
 The cloud is a :class:`~flylog.fly.population.Population` whose fields mean:
@@ -36,9 +38,9 @@ import numpy as np
 
 from flylog.baseline.config import SgbmConfig, SgbmMode
 from flylog.errors import FlylogError
-from flylog.fly.engine import GenerationStats
 from flylog.fly.fusion import moved_by_odometry
 from flylog.fly.population import Population
+from flylog.fly.stats import GenerationStats
 from flylog.geometry import Pose2D, StereoRig, compose
 from flylog.sensors import SonarReading, StereoPair
 
@@ -141,7 +143,9 @@ class SgbmEngine:
         self.rig = rig
         self.points = points
         self._matcher = stereo_matcher(config)
-        self._min_disparity = rig.focal_px * rig.baseline / config.max_depth
+        # measured disparities are f·B/Z − doffs; the matcher searches from 0 (and marks
+        # failures −1), so with doffs > 0 points beyond f·B/doffs are not found
+        self._min_disparity = max(rig.fb / config.max_depth - rig.doffs, 0.0)
         self._pop = Population.fresh(np.empty((0, 3)))
         self._pair: StereoPair | None = None
         self._since_pair = _IDENTITY  # odometry increment since the pair was set
@@ -206,7 +210,7 @@ class SgbmEngine:
         else:
             disparity = disparity_px(self._matcher, _rgb(pair.left), _rgb(pair.right))
         u, v = sampled_pixels(disparity, self._min_disparity, self.points)
-        depth = rig.focal_px * rig.baseline / disparity[v, u].astype(np.float64)
+        depth = rig.depth_of_disparity(disparity[v, u].astype(np.float64))
         xyz = rig.backproject(u, v, depth)
         if self._since_pair != _IDENTITY:
             xyz = moved_by_odometry(xyz, self._since_pair)

@@ -39,8 +39,9 @@ from flylog.geometry import StereoRig
 # image, or all of them score 0): its match has no rival on the line.
 NO_RIVAL = math.inf
 
-# The rival at infinity sits at this disparity (px): both projections round to the same
-# column (fitness reads whole pixels), unless the left one lies within this of a half pixel.
+# The rival at infinity sits at this disparity f·B/Z (px): its right projection rounds to the
+# column of the left one plus doffs (fitness reads whole pixels), unless it lies within this
+# of a half pixel.
 INFINITY_DISPARITY = 1e-9
 
 
@@ -52,14 +53,13 @@ def shifted_along_epipolar(
     of the cameras). Points whose shifted disparity is not positive are left at ``xyz``."""
     xyz = np.asarray(xyz, dtype=np.float64)
     u_left, u_right, v, depth = rig.project(xyz)
-    disparity = u_left - u_right
+    disparity = u_left - u_right + rig.doffs  # f·B/Z
     # every shift at once, (S, N): the same arithmetic element by element as one shift at a
     # time (the planner's worker measures this at every publication)
     d = disparity[None, :] + np.asarray(shifts, dtype=np.float64).reshape(-1, 1)
     valid = (d > 0) & (depth > 0)[None, :]
     safe = np.where(valid, d, 1.0)
-    fb = rig.focal_px * rig.baseline
-    points = rig.backproject(u_left[None, :], v[None, :], fb / safe)
+    points = rig.backproject(u_left[None, :], v[None, :], rig.fb / safe)
     return np.where(valid[:, :, None], points, xyz[None]), valid
 
 
@@ -68,7 +68,7 @@ def at_infinity(xyz: np.ndarray, rig: StereoRig) -> tuple[np.ndarray, np.ndarray
     infinity), and (N,) bool: whether the fly is in front of the cameras."""
     xyz = np.asarray(xyz, dtype=np.float64)
     u_left, _, v, depth = rig.project(xyz)
-    far = rig.focal_px * rig.baseline / INFINITY_DISPARITY
+    far = rig.fb / INFINITY_DISPARITY
     valid = depth > 0
     return np.where(valid[:, None], rig.backproject(u_left, v, np.full(len(xyz), far)), xyz), valid
 

@@ -21,7 +21,6 @@ and :func:`fitness_numpy` (a short gather reference).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numba
 import numpy as np
@@ -37,6 +36,17 @@ from flylog.fly.fitness_vector import (
     window_terms_32,
 )
 from flylog.geometry import StereoRig
+from flylog.geometry.kernels import (
+    CX,
+    CX_RIGHT,
+    CY,
+    FOCAL,
+    LEFT,
+    LEVEL,
+    RIGHT,
+    optical,
+    project,
+)
 
 INVALID_FITNESS = -1.0
 
@@ -47,50 +57,20 @@ def gy_weight(gradient: Gradient) -> int:
     return 1 if Gradient(gradient) is Gradient.NORM else 0
 
 
-@dataclass(frozen=True, slots=True)
-class RigConstants:
-    """The numbers the kernel needs from a :class:`StereoRig` (floats, passed as scalars)."""
-
-    focal: float
-    cx: float
-    cy: float
-    half_baseline: float
-    mount_x: float
-    mount_height: float
-
-    @classmethod
-    def of(cls, rig: StereoRig) -> RigConstants:
-        return cls(
-            float(rig.focal_px),
-            float(rig.cx),
-            float(rig.cy),
-            rig.baseline / 2.0,
-            float(rig.mount_x),
-            float(rig.mount_height),
-        )
-
-
 def rig_constants(rig: StereoRig) -> np.ndarray:
-    """(focal, cx, cy, b/2, mount x, mount height) as the float64 array the kernels take."""
-    k = RigConstants.of(rig)
-    return np.array(
-        [k.focal, k.cx, k.cy, k.half_baseline, k.mount_x, k.mount_height], dtype=np.float64
-    )
+    """The rig as the float64 array the kernels take (:mod:`flylog.geometry.kernels`)."""
+    return rig.constants()
 
 
 @numba.njit(cache=True, nogil=True)
 def left_projections_numba(xyz, k):  # pragma: no cover - compiled
     """(u_left, v) of every fly, the same numbers as ``StereoRig.project`` (``k`` from
     :func:`rig_constants`)."""
-    focal, cx, cy, half_b, mount_x, mount_h = k[0], k[1], k[2], k[3], k[4], k[5]
     n = xyz.shape[0]
     u = np.empty(n)
     v = np.empty(n)
     for i in range(n):
-        depth = xyz[i, 0] - mount_x
-        safe = depth if depth > 1e-9 else 1e-9
-        u[i] = cx - focal * (xyz[i, 1] - half_b) / safe
-        v[i] = cy - focal * (xyz[i, 2] - mount_h) / safe
+        u[i], _, v[i], _ = project(k, xyz[i, 0], xyz[i, 1], xyz[i, 2])
     return u, v
 
 
@@ -138,22 +118,6 @@ def fitness_numpy(
     grad2 = (gx.sum(axis=1) ** 2 + gy_weight(gradient) * gy.sum(axis=1) ** 2).sum(axis=1)
     out[valid] = np.sqrt(np.sqrt(grad2.astype(np.float64))) / (zssd + guard * n * channels)
     return out
-
-
-@numba.njit(cache=True, nogil=True)
-def _project_valid(x, y, z, k, window, height, width):  # pragma: no cover - compiled
-    """Rounded (row, left column, right column), or row = -1 when the fly is invalid."""
-    focal, cx, cy, half_b, mount_x, mount_h = k[0], k[1], k[2], k[3], k[4], k[5]
-    h = window // 2
-    depth = x - mount_x
-    if not depth > 0.0:
-        return -1, 0, 0
-    ul = math.floor(cx - focal * (y - half_b) / depth + 0.5)
-    ur = math.floor(cx - focal * (y + half_b) / depth + 0.5)
-    vv = math.floor(cy - focal * (z - mount_h) / depth + 0.5)
-    if not (h <= vv <= height - 1 - h and h <= ul <= width - 1 - h and h <= ur <= width - 1 - h):
-        return -1, 0, 0
-    return int(vv), int(ul), int(ur)
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -213,7 +177,7 @@ def _zssd_lanes(lflat, rflat, bl, br, stride, window, channels, scratch):  # pra
 # Flies go in blocks, in three passes: project all (and prefetch their window rows), then the
 # integer window terms, then the float fitness. Each pass's iterations are independent, so the
 # CPU overlaps one fly's long chain (divisions, loads, reductions, square roots) with the
-# next's; done fly by fly, that chain was most of the time.
+# next's; scored fly by fly, that chain is most of the time.
 _BLOCK = 64
 # The window rows of the fly this many places ahead are prefetched: random flies' rows mostly
 # miss L2, and a fly's wait then overlaps the work on the flies before it.
@@ -260,20 +224,34 @@ def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, gua
     first_r = np.empty(_BLOCK, dtype=np.int64)
     totals = np.empty(_BLOCK, dtype=np.int64)
     grads = np.empty(_BLOCK, dtype=np.int64)
-    # the projections of the block's flies, _project_valid's numbers: depth, u left, u right, v
+    # the projections of the block's flies: depth, u left, u right, v
     proj = np.empty((4, _BLOCK))
     fitness = np.empty(_BLOCK)
     scratch = np.empty((2, ncols), dtype=np.int32)  # for the windows of the lane loop
-    focal, cx, cy, half_b, mount_x, mount_h = k[0], k[1], k[2], k[3], k[4], k[5]
+    focal, cx, cy, cx_right = k[FOCAL], k[CX], k[CY], k[CX_RIGHT]
+    lx, ly, lz, ry = k[LEFT], k[LEFT + 1], k[LEFT + 2], k[RIGHT + 1]
+    level = k[LEVEL] != 0.0
     for block in range(start, stop, _BLOCK):
         m = min(_BLOCK, stop - block)
-        for t in range(m):  # no branch: vectorised, four flies a division
-            i = index[block + t]
-            depth = xyz[i, 0] - mount_x
-            proj[0, t] = depth
-            proj[1, t] = cx - focal * (xyz[i, 1] - half_b) / depth
-            proj[2, t] = cx - focal * (xyz[i, 1] + half_b) / depth
-            proj[3, t] = cy - focal * (xyz[i, 2] - mount_h) / depth
+        # A level rig: the numbers of the general loop without the rotation's zeros and ones
+        # (one thread, 1.00x the level-only kernel's rate against 0.94-0.98x for the general
+        # loop on the same flies, tests/benchmarks/bench_fly.py).
+        if level:
+            for t in range(m):  # no branch: vectorised, four flies a division
+                i = index[block + t]
+                depth = xyz[i, 0] - lx
+                proj[0, t] = depth
+                proj[1, t] = cx - focal * (xyz[i, 1] - ly) / depth
+                proj[2, t] = cx_right - focal * (xyz[i, 1] - ry) / depth
+                proj[3, t] = cy - focal * (xyz[i, 2] - lz) / depth
+        else:
+            for t in range(m):
+                i = index[block + t]
+                a, b, depth, ar = optical(k, xyz[i, 0], xyz[i, 1], xyz[i, 2])
+                proj[0, t] = depth
+                proj[1, t] = cx + focal * a / depth
+                proj[2, t] = cx_right + focal * ar / depth
+                proj[3, t] = cy + focal * b / depth
         for t in range(m):
             ul = math.floor(proj[1, t] + 0.5)
             ur = math.floor(proj[2, t] + 0.5)

@@ -11,6 +11,7 @@ import numpy as np
 
 from flylog.fly.fitness import fitness_serial
 from flylog.geometry import Pose2D, StereoRig, inverse, transform_points_2d
+from flylog.geometry.kernels import RIG_SIZE, project
 from flylog.sensors import SonarReading
 
 
@@ -159,11 +160,8 @@ def fired_arcs(reading: SonarReading) -> np.ndarray:
 
 def arc_constants(rig: StereoRig, margin: int) -> np.ndarray:
     """What :func:`sonar_immigrants_into` needs of the rig, as one float64 array."""
-    return np.array(
-        [rig.focal_px, rig.cx, rig.cy, rig.baseline / 2.0, rig.mount_x, rig.mount_height,
-         margin, rig.width - 1 - margin, rig.height - 1 - margin],
-        dtype=np.float64,
-    )  # fmt: skip
+    extra = [margin, rig.width - 1 - margin, rig.height - 1 - margin, rig.mount_height]
+    return np.concatenate([rig.constants(), np.array(extra, dtype=np.float64)])
 
 
 # The random stream of sonar immigrants: candidates in chunks of n (the flies wanted), at most
@@ -219,8 +217,7 @@ def sonar_immigrants_into(rng, arcs, half_cone, tolerance, k, tries, out):  # pr
     first ones inside both images, as :func:`arc_immigrants_numpy` keeps them
     (``StereoRig.project``'s arithmetic, in its order); returns how many. ``arcs`` from
     :func:`fired_arcs` (at least one row), ``k`` from :func:`arc_constants`."""
-    f, cx, cy, half_b, mount_x, mount_h = k[0], k[1], k[2], k[3], k[4], k[5]
-    lo, hi_u, hi_v = k[6], k[7], k[8]
+    lo, hi_u, hi_v, mount_h = k[RIG_SIZE], k[RIG_SIZE + 1], k[RIG_SIZE + 2], k[RIG_SIZE + 3]
     n = out.shape[0]
     n_fired = arcs.shape[0]
     found = 0
@@ -237,13 +234,9 @@ def sonar_immigrants_into(rng, arcs, half_cone, tolerance, k, tries, out):  # pr
             x = arcs[s, 0] + distance * np.cos(bearing)
             y = arcs[s, 1] + distance * np.sin(bearing)
             z = 0.0 + (mount_h - 0.0) * w3
-            depth = x - mount_x
+            u_left, u_right, v, depth = project(k, x, y, z)
             if not depth > 0:
                 continue
-            safe = depth if depth > 1e-9 else 1e-9
-            u_left = cx - f * (y - half_b) / safe
-            u_right = cx - f * (y + half_b) / safe
-            v = cy - f * (z - mount_h) / safe
             if lo <= v <= hi_v and lo <= u_left <= hi_u and lo <= u_right <= hi_u:
                 out[found, 0], out[found, 1], out[found, 2] = x, y, z
                 found += 1
@@ -270,11 +263,11 @@ def sonar_immigrants(
         return np.empty((0, 3))
     if use_numba:
         out = np.empty((n, 3))
-        found = sonar_immigrants_into(
+        count = sonar_immigrants_into(
             rng, fired_arcs(reading), float(reading.half_cone), float(tolerance),
             arc_constants(rig, margin), tries, out,
         )  # fmt: skip
-        return out[:found]
+        return out[:count]
     batches: list[np.ndarray] = []
     for _ in range(tries):
         batches.append(arc_immigrants_numpy(arc_draws(rng, reading, n, rig, tolerance), reading,

@@ -1,10 +1,10 @@
 """One generation of the compiled engine in one call (:meth:`FlyEngine.step`, numba backend).
 
-A generation used to be four or five compiled calls with Python between them; at ~150
-generations a second of replay, their dispatch (numba types a ``numpy.random.Generator`` in
-~10 µs, and did so twice while scouting) and the Python glue around them were ~5 % of the
-engine's thread. Here the same kernels run in the same order on the same arrays, drawing the
-same random numbers: the population is the one the numpy backend makes (tests compare them).
+Why one call: at ~150 generations a second of replay, four or five compiled calls per
+generation with Python between them cost ~5 % of the engine's thread in dispatch (numba types
+a ``numpy.random.Generator`` in ~10 µs, twice while scouting) and glue. The kernels run in the
+numpy backend's order on the same arrays, drawing the same random numbers: the population is
+the one the numpy backend makes (tests compare them).
 Each step is the function named, see there:
 
 1. vision fitness of the stale flies, fused fitness of those (of every fly when asked),
@@ -32,6 +32,7 @@ from flylog.fly.operators import immigrants_and_children_into
 from flylog.fly.population import select_into_kernel
 from flylog.fly.scouts import scouts_into
 from flylog.geometry import StereoRig
+from flylog.geometry.kernels import row_of
 
 
 @numba.njit(cache=True, nogil=True)
@@ -134,14 +135,13 @@ def rows_order_into(xyz, index, k, height, scratch):  # pragma: no cover - compi
     ``scratch[2]``: scoring flies in this order reads the images row band by row band, their
     windows overlapping in the caches (~12 % faster for a generation's newcomers, the sort
     included). ``scratch`` is (3, ≥ max(len(index), height + 2)) integer."""
-    focal, cy, mount_x, mount_h = k[0], k[2], k[4], k[5]
     m = index.shape[0]
     bins = height + 2
     counts, row, out = scratch[0, :bins], scratch[1], scratch[2]
     counts[:] = 0
     for t in range(m):
         i = index[t]
-        v = cy - focal * (xyz[i, 2] - mount_h) / (xyz[i, 0] - mount_x)
+        v = row_of(k, xyz[i, 0], xyz[i, 1], xyz[i, 2])
         r = int(v) + 1 if 0.0 <= v < height else 0
         row[t] = r
         counts[r] += 1
@@ -158,9 +158,9 @@ def rows_order_into(xyz, index, k, height, scratch):  # pragma: no cover - compi
 def rows_order_numpy(xyz: np.ndarray, index: np.ndarray, rig: StereoRig) -> np.ndarray:
     """Reference: the order :func:`rows_order_into` gives (same arithmetic: a fly behind or
     in the cameras' plane lands off the image)."""
-    x, z = xyz[index, 0], xyz[index, 2]
+    _, b, depth, _ = rig.optical(xyz[index])
     with np.errstate(divide="ignore", invalid="ignore"):
-        v = rig.cy - rig.focal_px * (z - rig.mount_height) / (x - rig.mount_x)
+        v = rig.cy + rig.focal_px * b / depth
         on = (v >= 0.0) & (v < rig.height)
         row = np.where(on, np.floor(np.where(on, v, 0.0)) + 1, 0).astype(np.int64)
     return index[np.argsort(row, kind="stable")]

@@ -8,6 +8,7 @@ import numba
 import numpy as np
 
 from flylog.fly.fitness import INVALID_FITNESS
+from flylog.geometry.kernels import project
 
 
 def neighbour_counts_numpy(
@@ -42,9 +43,9 @@ def _grid_counts(puv, pidx, m, radius, grid, ints, suv, counts):  # pragma: no c
     right and an empty row below. Two flies within R are then in the same or adjacent cells,
     and the flies a fly still has to test (each pair once) are two contiguous runs of the
     sorted flies: the rest of its cell and the next cell of its row, then the three cells
-    below, walked as one loop. Their bounds are cell starts: no search (the sweep this
-    replaces searched them, and its loop exits, mispredicted on fresh flies every generation,
-    were most of its time). ``ints`` is (4, ≥ m) integer scratch, ``suv`` (≥ m, 2) float64."""
+    below, walked as one loop. Their bounds are cell starts: no search (a sweep that searches
+    them spends most of its time in loop exits mispredicted on fresh flies every
+    generation). ``ints`` is (4, ≥ m) integer scratch, ``suv`` (≥ m, 2) float64."""
     cell, order, near, sorted_cell = ints[0], ints[1], ints[2], ints[3]
     umin, vmin, umax, vmax = np.inf, np.inf, -np.inf, -np.inf
     for t in range(m):
@@ -128,15 +129,13 @@ def fly_neighbour_counts_into(xyz, k, fitness, radius, grid, ints, uv, counts): 
     """The same counts for the flies themselves: valid = fitness > INVALID_FITNESS, (u, v)
     their left projections (``StereoRig.project``'s numbers, ``k`` from
     :func:`~flylog.fly.fitness.rig_constants`); scratch as for :func:`neighbour_counts_into`."""
-    focal, cx, cy, half_b, mount_x, mount_h = k[0], k[1], k[2], k[3], k[4], k[5]
     m = 0
     for i in range(xyz.shape[0]):
         counts[i] = 0
         if fitness[i] > INVALID_FITNESS:
-            depth = xyz[i, 0] - mount_x
-            safe = depth if depth > 1e-9 else 1e-9
-            uv[0, m, 0] = cx - focal * (xyz[i, 1] - half_b) / safe
-            uv[0, m, 1] = cy - focal * (xyz[i, 2] - mount_h) / safe
+            u, _, v, _ = project(k, xyz[i, 0], xyz[i, 1], xyz[i, 2])
+            uv[0, m, 0] = u
+            uv[0, m, 1] = v
             ints[0, m] = i
             m += 1
     if m > 0:

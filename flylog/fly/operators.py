@@ -1,4 +1,5 @@
-"""The evolutionary operators of the fly algorithm (paper §2.1.2, §2.2), one function each.
+"""The fly algorithm's breeding operators (paper §2.1.2, §2.2): mutation, crossovers and a
+generation's newcomers, one function each (selection and sharing: :mod:`flylog.fly.selection`).
 
 Every operator takes its random numbers from the ``numpy.random.Generator`` passed in.
 """
@@ -9,91 +10,9 @@ import numba
 import numpy as np
 
 from flylog.fly.fusion import sonar_immigrants_into
-from flylog.fly.sorting import median_radix, select_radix
+from flylog.fly.population import random_flies
 from flylog.geometry import StereoRig
-
-
-def survivor_indices(shared_fitness: np.ndarray, keep: int) -> np.ndarray:
-    """Elitist, deterministic selection: the indices of the ``keep`` best flies, in index
-    order; among equal flies at the cut the lowest indices stay. Index order, not best first:
-    no sort is needed, and breeding picks parents uniformly, so their order does not matter."""
-    n = len(shared_fitness)
-    if keep >= n:
-        return np.arange(n)
-    if keep <= 0:
-        return np.empty(0, dtype=np.int64)
-    cut = np.partition(shared_fitness, n - keep)[n - keep]
-    taken = shared_fitness > cut
-    tied = np.flatnonzero(shared_fitness == cut)[: keep - int(np.count_nonzero(taken))]
-    taken[tied] = True
-    return np.flatnonzero(taken)
-
-
-@numba.njit(cache=True, nogil=True)
-def survivors_cut(score, keep, work):  # pragma: no cover - compiled
-    """(cut, ties): the ``keep`` flies :func:`survivor_indices` takes are those with
-    ``score > cut`` and the first ``ties`` with ``score == cut``; ``work`` (≥ N, contiguous)
-    is scratch. Needs 0 < keep < N."""
-    n = score.shape[0]
-    cut = select_radix(score, n - keep, work[:n].view(np.uint64))
-    above = 0
-    for i in range(n):
-        above += score[i] > cut
-    return cut, keep - above
-
-
-@numba.njit(cache=True, nogil=True)
-def survivor_indices_numba(shared_fitness, keep):  # pragma: no cover - compiled
-    """Same indices as :func:`survivor_indices`."""
-    n = shared_fitness.shape[0]
-    if keep >= n:
-        return np.arange(n)
-    if keep <= 0:
-        return np.empty(0, dtype=np.int64)
-    cut, ties = survivors_cut(shared_fitness, keep, np.empty(n))
-    out = np.empty(keep, dtype=np.int64)
-    t = 0
-    for i in range(n):
-        s = shared_fitness[i]
-        if s > cut or (s == cut and ties > 0):
-            ties -= s == cut
-            out[t] = i
-            t += 1
-    return out
-
-
-def shared_fitness(fitness: np.ndarray, counts: np.ndarray, coefficient: float) -> np.ndarray:
-    """2-D sharing: fitness − K·n·f̃, with f̃ the median of the positive fitnesses, so that K
-    is dimensionless whatever the images' contrast. Non-positive fitnesses are left alone."""
-    positive = fitness > 0
-    if not positive.any():
-        return fitness.copy()
-    scale = float(np.median(fitness[positive]))
-    return np.where(positive, fitness - coefficient * scale * counts, fitness)
-
-
-@numba.njit(cache=True, nogil=True)
-def shared_fitness_into(fitness, counts, coefficient, work, out):  # pragma: no cover - compiled
-    """:func:`shared_fitness` written into ``out`` (contiguous: also the median's scratch);
-    ``work`` (≥ N) is scratch."""
-    m = 0
-    for i in range(fitness.shape[0]):
-        work[m] = fitness[i]
-        m += fitness[i] > 0
-    if m == 0:
-        out[:] = fitness
-        return
-    step = coefficient * median_radix(work[:m], out[:m].view(np.uint64))
-    for i in range(fitness.shape[0]):
-        out[i] = fitness[i] - step * counts[i] if fitness[i] > 0 else fitness[i]
-
-
-@numba.njit(cache=True, nogil=True)
-def shared_fitness_numba(fitness, counts, coefficient):  # pragma: no cover - compiled
-    """Same values as :func:`shared_fitness`."""
-    out = np.empty_like(fitness)
-    shared_fitness_into(fitness, counts, coefficient, np.empty_like(fitness), out)
-    return out
+from flylog.geometry.kernels import RIG_SIZE, backproject, project
 
 
 def mutated(
@@ -119,8 +38,9 @@ def mutated(
 
 def _mutated_by(noise, xyz, rig, sigma_px, sigma_disparity_px, d_min, d_max) -> np.ndarray:
     u_left, u_right, v, _ = rig.project(xyz)
-    fb = rig.focal_px * rig.baseline
-    disparity = np.clip(u_left - u_right + sigma_disparity_px * noise[:, 2], fb / d_max, fb / d_min)
+    fb = rig.fb
+    measured = u_left - u_right + rig.doffs  # f·B/Z
+    disparity = np.clip(measured + sigma_disparity_px * noise[:, 2], fb / d_max, fb / d_min)
     return rig.backproject(
         u_left + sigma_px * noise[:, 0], v + sigma_px * noise[:, 1], fb / disparity
     )
@@ -194,8 +114,6 @@ def newcomers_numpy(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Reference: (children (n_children, 3), uniform immigrants (n_uniform, 3)) drawn in the
     stream order above. A child is a mutation of one parent or one of the two crossovers."""
-    from flylog.fly.population import random_flies  # population imports this module
-
     uniform = random_flies(rng, rig, n_uniform, d_min=d_min, d_max=d_max, margin=margin)
     m = len(parents)
     which = rng.random(n_children)
@@ -225,13 +143,10 @@ def newcomers_numpy(
 
 def newcomer_constants(rig: StereoRig, d_min: float, d_max: float, margin: int) -> np.ndarray:
     """What :func:`newcomers_into` needs of the rig and the search box, as one float64 array."""
-    fb = rig.focal_px * rig.baseline
-    return np.array(
-        [rig.focal_px, rig.cx, rig.cy, rig.baseline / 2.0, rig.mount_x, rig.mount_height,
-         fb / d_max, fb / d_min, margin, rig.width - 1 - margin, margin,
-         rig.height - 1 - margin, 1.0 / d_max, 1.0 / d_min],
-        dtype=np.float64,
-    )  # fmt: skip
+    fb = rig.fb
+    extra = [fb / d_max, fb / d_min, margin, rig.width - 1 - margin, margin,
+             rig.height - 1 - margin, 1.0 / d_max, 1.0 / d_min, fb, rig.doffs]  # fmt: skip
+    return np.concatenate([rig.constants(), np.array(extra, dtype=np.float64)])
 
 
 @numba.njit(cache=True, nogil=True)
@@ -241,21 +156,17 @@ def newcomers_into(
     """Same flies as :func:`newcomers_numpy`, from the same draws, written into ``children``
     and ``uniform`` (``k`` from :func:`newcomer_constants`); one pass per block of draws,
     no allocation but two small scratch arrays."""
-    f, cx, cy, half_b, mount_x, mount_h = k[0], k[1], k[2], k[3], k[4], k[5]
-    lo, hi = k[6], k[7]
-    fb = f * (2.0 * half_b)
+    lo, hi = k[RIG_SIZE], k[RIG_SIZE + 1]
+    fb, doffs = k[RIG_SIZE + 8], k[RIG_SIZE + 9]
     # uniform immigrants: rng.uniform(low, high) is low + (high − low)·U
     n_u = uniform.shape[0]
     for j in range(3):
-        low, high = k[8 + 2 * j], k[9 + 2 * j]
+        low, high = k[RIG_SIZE + 2 + 2 * j], k[RIG_SIZE + 3 + 2 * j]
         for i in range(n_u):
             uniform[i, j] = low + (high - low) * rng.random()
     for i in range(n_u):
-        depth = 1.0 / uniform[i, 2]
-        u, v = uniform[i, 0], uniform[i, 1]
-        uniform[i, 0] = mount_x + depth
-        uniform[i, 1] = half_b - (u - cx) * depth / f
-        uniform[i, 2] = mount_h - (v - cy) * depth / f
+        x, y, z = backproject(k, uniform[i, 0], uniform[i, 1], 1.0 / uniform[i, 2])
+        uniform[i, 0], uniform[i, 1], uniform[i, 2] = x, y, z
     n = children.shape[0]
     m = parents.shape[0]
     which = np.empty(n)
@@ -288,19 +199,11 @@ def newcomers_into(
     for t in range(n_mutate):
         i = mutate[t]
         a = pick[i, 0]
-        depth = parents[a, 0] - mount_x
-        safe = depth if depth > 1e-9 else 1e-9
-        u_left = cx - f * (parents[a, 1] - half_b) / safe
-        u_right = cx - f * (parents[a, 1] + half_b) / safe
-        v = cy - f * (parents[a, 2] - mount_h) / safe
+        u_left, u_right, v, _ = project(k, parents[a, 0], parents[a, 1], parents[a, 2])
         n_u_, n_v, n_d = rng.standard_normal(), rng.standard_normal(), rng.standard_normal()
-        disparity = min(max(u_left - u_right + sigma_disparity_px * n_d, lo), hi)
-        z = fb / disparity
-        uu = u_left + sigma_px * n_u_
-        vv = v + sigma_px * n_v
-        children[i, 0] = mount_x + z
-        children[i, 1] = half_b - (uu - cx) * z / f
-        children[i, 2] = mount_h - (vv - cy) * z / f
+        disparity = min(max(u_left - u_right + doffs + sigma_disparity_px * n_d, lo), hi)
+        x, y, z = backproject(k, u_left + sigma_px * n_u_, v + sigma_px * n_v, fb / disparity)
+        children[i, 0], children[i, 1], children[i, 2] = x, y, z
     for t in range(n_two):
         i = two[t]
         a, b = pick[i, 0], pick[i, 1]

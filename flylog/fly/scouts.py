@@ -1,6 +1,6 @@
 """Scouting immigrants: while the robot turns, a share of the uniform immigrants go where new
-scene content enters the view, each at the best of K candidate depths (issue 5, detection
-latency).
+scene content enters the view, each at the best of K candidate depths (it shortens the
+detection latency of what comes into view).
 
 Turning on the spot, the scene enters the left image at one edge (turning left, at the left
 edge; right, at the right edge), a strip as wide as the turn sweeps. Uniform immigrants land
@@ -12,9 +12,10 @@ candidate evaluation is returned to the caller, which charges it to the compute 
 
 The strip is what the odometry's yaw over the last ``scout_strip_frames`` image intervals
 brought into view (a pure rotation about the robot's vertical axis; the cameras' offset
-from it is neglected). Driving straight, nothing enters at an edge (the view expands from
-its centre), so below ``scout_min_shift`` pixels of edge motion per frame nobody scouts and
-the immigrants stay uniform.
+from it, and a tilted or rolled camera's slant of the image edge, are neglected: the strip
+is a band of columns, from the principal point and doffs). Driving straight, nothing enters
+at an edge (the view expands from its centre), so below ``scout_min_shift`` pixels of edge
+motion per frame nobody scouts and the immigrants stay uniform.
 
 The random stream of one call, both implementations: per scout, U for the column, U for the
 row, then K U for the offsets of its disparities in their K-ths.
@@ -31,6 +32,7 @@ from flylog.fly.config import Backend, EngineConfig
 from flylog.fly.fitness import fitness_numpy, fitness_serial, gy_weight, rig_constants
 from flylog.fly.operators import newcomer_constants
 from flylog.geometry import StereoRig
+from flylog.geometry.kernels import CX, CY, FOCAL, LEFT, RIG_SIZE, ROWS, backproject
 
 
 def entering_strip(
@@ -66,41 +68,52 @@ def scout_candidates_numpy(
     """Reference: (n·K, 3) candidates, scout i's K in rows i·K…i·K+K−1, for a ``strip``
     from :func:`entering_strip` (``k`` from :func:`~flylog.fly.operators.newcomer_constants`).
     A scout's disparities stay where its other projection is inside the image."""
-    f, cx, cy, half_b, mount_x, mount_h = k[0], k[1], k[2], k[3], k[4], k[5]
-    lo, hi, margin, u_hi, v_lo, v_hi = k[6], k[7], k[8], k[9], k[10], k[11]
+    lo, hi, margin, u_hi, v_lo, v_hi = (float(k[RIG_SIZE + j]) for j in range(6))
+    fb, doffs = float(k[RIG_SIZE + 8]), float(k[RIG_SIZE + 9])
     c0, c1, in_right = strip
     w = rng.random((n, 2 + n_depths))
     c = c0 + (c1 - c0) * w[:, 0]
     v = v_lo + (v_hi - v_lo) * w[:, 1]
-    top = np.maximum(np.minimum(hi, (u_hi - c) if in_right else (c - margin)), lo)
+    room = (u_hi - c + doffs) if in_right else (c - margin + doffs)
+    top = np.maximum(np.minimum(hi, room), lo)
     strata = (np.arange(n_depths)[None, :] + w[:, 2:]) / n_depths
     disparity = lo + (top - lo)[:, None] * strata
-    z = (f * (2.0 * half_b)) / disparity
-    u = (c[:, None] + disparity) if in_right else c[:, None]
-    out = np.stack(
-        [mount_x + z, half_b - (u - cx) * z / f, mount_h - (v[:, None] - cy) * z / f], axis=-1
-    )
+    z = fb / disparity
+    u = (c[:, None] + (disparity - doffs)) if in_right else c[:, None]
+    out = _backproject_numpy(k, u, np.broadcast_to(v[:, None], u.shape), z)
     return out.reshape(n * n_depths, 3)
+
+
+def _backproject_numpy(
+    k: np.ndarray, u: np.ndarray, v: np.ndarray, depth: np.ndarray
+) -> np.ndarray:
+    """:func:`flylog.geometry.kernels.backproject` over arrays (the same operations)."""
+    f, cx, cy = float(k[FOCAL]), float(k[CX]), float(k[CY])
+    r = [float(x) for x in k[ROWS : ROWS + 9]]
+    a = (u - cx) * depth / f
+    b = (v - cy) * depth / f
+    return np.stack(
+        [float(k[LEFT + j]) + (r[j] * a + r[3 + j] * b + r[6 + j] * depth) for j in range(3)],
+        axis=-1,
+    )
 
 
 @numba.njit(cache=True, nogil=True)
 def scout_candidates_into(rng, k, c0, c1, in_right, n_depths, out):  # pragma: no cover
     """Same candidates as :func:`scout_candidates_numpy` (n = len(out) // K), into ``out``."""
-    f, cx, cy, half_b, mount_x, mount_h = k[0], k[1], k[2], k[3], k[4], k[5]
-    lo, hi, margin, u_hi, v_lo, v_hi = k[6], k[7], k[8], k[9], k[10], k[11]
-    fb = f * (2.0 * half_b)
+    lo, hi, margin = k[RIG_SIZE], k[RIG_SIZE + 1], k[RIG_SIZE + 2]
+    u_hi, v_lo, v_hi = k[RIG_SIZE + 3], k[RIG_SIZE + 4], k[RIG_SIZE + 5]
+    fb, doffs = k[RIG_SIZE + 8], k[RIG_SIZE + 9]
     for i in range(out.shape[0] // n_depths):
         c = c0 + (c1 - c0) * rng.random()
         v = v_lo + (v_hi - v_lo) * rng.random()
-        top = max(min(hi, (u_hi - c) if in_right else (c - margin)), lo)
+        top = max(min(hi, (u_hi - c + doffs) if in_right else (c - margin + doffs)), lo)
         for j in range(n_depths):
             disparity = lo + (top - lo) * ((j + rng.random()) / n_depths)
             z = fb / disparity
-            u = c + disparity if in_right else c
+            u = c + (disparity - doffs) if in_right else c
             r = i * n_depths + j
-            out[r, 0] = mount_x + z
-            out[r, 1] = half_b - (u - cx) * z / f
-            out[r, 2] = mount_h - (v - cy) * z / f
+            out[r, 0], out[r, 1], out[r, 2] = backproject(k, u, v, z)
 
 
 def best_candidates_numpy(candidates: np.ndarray, fitness: np.ndarray, n_depths: int) -> np.ndarray:

@@ -10,7 +10,7 @@ from typing import Any
 import foxglove.messages as fm
 import numpy as np
 
-from flylog.geometry import OPTICAL_IN_BASE_QUAT, Pose2D, StereoRig, yaw_quaternion
+from flylog.geometry import Pose2D, StereoRig, yaw_quaternion
 from flylog.io import contract
 from flylog.io import protobuf_wire as wire
 from flylog.io.records import BoxShape, CylinderShape, Transform
@@ -90,7 +90,7 @@ def camera_calibration(rig: StereoRig, side: str, stamp_ns: int) -> fm.CameraCal
         height=rig.height,
         distortion_model="plumb_bob",
         D=[0.0] * 5,
-        K=[float(v) for v in rig.intrinsics().ravel()],
+        K=[float(v) for v in rig.intrinsics(side).ravel()],
         R=[float(v) for v in np.eye(3).ravel()],
         P=[float(v) for v in rig.projection(side).ravel()],
     )
@@ -139,7 +139,7 @@ def static_transforms(rig: StereoRig, sonar: SonarConfig) -> list[Transform]:
             contract.BASE_FRAME,
             contract.CAMERA_FRAMES[side],
             rig.camera_position(side),
-            OPTICAL_IN_BASE_QUAT,
+            rig.mount_quaternion(),
         )
         for side in ("left", "right")
     ]

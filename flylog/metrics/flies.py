@@ -47,6 +47,7 @@ import numpy as np
 from flylog.geometry import StereoRig
 from flylog.metrics.config import MetricsConfig
 from flylog.metrics.true_depth import relative_depth_error, view_at, views_at
+from flylog.metrics.view import nearest_visible_rotated
 
 # What other modules import from here.
 __all__ = [
@@ -159,6 +160,8 @@ def _pixels_per_obstacle(ids: np.ndarray, n_obstacles: int) -> np.ndarray:
 
 def _nearest_visible(depth: np.ndarray, ids: np.ndarray, rig: StereoRig, block: int) -> np.ndarray:
     """:func:`nearest_visible_distance` of each stacked view."""
+    if not rig.is_level:
+        return nearest_visible_rotated(depth, ids, rig, block)
     masked = np.where(ids >= 0, depth, np.inf).min(axis=1)  # (S, columns)
     seen = np.isfinite(masked)
     d = masked.astype(float)

@@ -10,6 +10,7 @@ unfinished ones), in one streaming pass over the log."""
 
 from __future__ import annotations
 
+import dataclasses
 import enum
 import json
 import math
@@ -79,14 +80,15 @@ def read_rig(reader: LogReader, scene: Scene) -> StereoRig:
     rig = scene.spec.camera
     if contract.LEFT_CALIBRATION in reader.topics():
         first = next(iter(reader.messages([contract.LEFT_CALIBRATION]))).value
-        return StereoRig(
+        cx, cy = float(first.K[0, 2]), float(first.K[1, 2])
+        centre = ((first.width - 1) / 2.0, (first.height - 1) / 2.0)
+        return dataclasses.replace(
+            rig,
             width=first.width,
             height=first.height,
             focal_px=float(first.K[0, 0]),
-            baseline=rig.baseline,
-            mount_height=rig.mount_height,
-            mount_x=rig.mount_x,
-            frame_rate=rig.frame_rate,
+            principal_point=None if (cx, cy) == centre else (cx, cy),
+            doffs=rig.doffs * first.width / rig.width,
         )
     return rig
 

@@ -51,9 +51,31 @@ def block_rig(rig: StereoRig, block: int) -> StereoRig:
     if rig.width % block or rig.height % block:
         msg = f"blocks of {block} px do not tile a {rig.width}x{rig.height} image"
         raise ValueError(msg)
+    pp = rig.principal_point
+    if pp is not None:  # block j's centre ray is pixel b·j + (b − 1)/2's
+        pp = ((pp[0] - (block - 1) / 2) / block, (pp[1] - (block - 1) / 2) / block)
     return dataclasses.replace(
-        rig, width=rig.width // block, height=rig.height // block, focal_px=rig.focal_px / block
+        rig,
+        width=rig.width // block,
+        height=rig.height // block,
+        focal_px=rig.focal_px / block,
+        principal_point=pp,
+        doffs=rig.doffs / block,
     )
+
+
+def nearest_visible_rotated(
+    depth: np.ndarray, ids: np.ndarray, rig: StereoRig, block: int
+) -> np.ndarray:
+    """(S,) ground distance (m) from base_link to the nearest obstacle pixel of each stacked
+    true view (S, H/block, W/block) of a rig that is not level: there a column's rows are
+    not one bearing, so every pixel is back-projected."""
+    centres = [np.arange(n) * block + (block - 1) / 2.0 for n in depth.shape[1:]]
+    v, u = np.meshgrid(*centres, indexing="ij")
+    seen = (ids >= 0) & np.isfinite(depth)
+    points = rig.backproject(u, v, np.where(seen, depth, 1.0).astype(float))
+    far = np.where(seen, np.hypot(points[..., 0], points[..., 1]), np.inf)
+    return far.reshape(len(far), -1).min(axis=1, initial=np.inf)
 
 
 class TrueViews:

@@ -27,6 +27,7 @@ import numpy as np
 
 from flylog.geometry import StereoRig
 from flylog.scene.footprints import Footprints, ray_hits_numpy
+from flylog.sim.rotated import sample_truth, warps
 
 # ids, as in flylog.sim.render
 GROUND = -1
@@ -56,12 +57,12 @@ def _sorted_hits(
     (t_in, t_out, index), padded with (inf, -inf, -1) to the most any column crosses."""
     ox, oy, dirs = _column_rays(rig, poses)
     w = rig.width
-    t_in, t_out, _, _ = ray_hits_numpy(
+    t_in, t_out, _, _ = ray_hits_numpy(  # broadcasts over rays: arrays for its floats
         fp,
-        np.repeat(ox, w)[:, None],
-        np.repeat(oy, w)[:, None],
-        dirs[..., 0].reshape(-1, 1),
-        dirs[..., 1].reshape(-1, 1),
+        np.repeat(ox, w)[:, None],  # type: ignore[arg-type]
+        np.repeat(oy, w)[:, None],  # type: ignore[arg-type]
+        dirs[..., 0].reshape(-1, 1),  # type: ignore[arg-type]
+        dirs[..., 1].reshape(-1, 1),  # type: ignore[arg-type]
     )
     hit = t_out >= t_in
     t_in = np.where(hit, t_in, np.inf)
@@ -138,7 +139,19 @@ def _run_end(holds, estimate: np.ndarray, height: int) -> np.ndarray:
 def true_depths(fp: Footprints, rig: StereoRig, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The left camera's (B, H, W) float32 depth (m along the optical axis, inf = sky) and
     int16 ids (obstacle index, -1 ground, -2 sky) from each true robot pose (B, 3) (x, y,
-    theta): equal to ``Renderer(scene, rig).render_depth(pose)`` for every pose."""
+    theta): equal to ``Renderer(scene, rig).render_depth(pose)`` for every pose. A rig that
+    is not level is rendered through its left camera's level one, as the renderer does
+    (:mod:`flylog.sim.rotated`)."""
+    if rig.is_level:
+        return _level_true_depths(fp, rig, poses)
+    warp = warps(rig)[0]
+    depth, ids = _level_true_depths(fp, warp.level, poses)
+    return sample_truth(depth, ids, warp)
+
+
+def _level_true_depths(
+    fp: Footprints, rig: StereoRig, poses: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     poses = np.asarray(poses, dtype=float).reshape(-1, 3)
     n, height = len(poses), rig.height
     t_in, t_out, index = _sorted_hits(fp, rig, poses)

@@ -10,7 +10,8 @@ The 2-D ray parameter is the depth along the optical axis, so depth comes for fr
 :class:`Renderer` runs a numba kernel, parallel over blocks of columns of both images; each
 column first finds its surfaces, then textures all its rows at once (vectorised, see
 :func:`flylog.sim.textures.texture_column`), then shades them;
-:func:`render_reference` is the plain-numpy reference (slow, for tests at small sizes).
+:func:`tests.sim.render_reference.render_reference` is the plain-numpy reference (slow, for
+tests at small sizes).
 """
 
 from __future__ import annotations
@@ -22,10 +23,11 @@ import numba
 import numpy as np
 
 from flylog.geometry import Pose2D, StereoRig
-from flylog.scene.footprints import DISC, Footprints, ray_hits_numpy
+from flylog.scene.footprints import DISC, Footprints
 from flylog.scene.load import Scene
 from flylog.scene.ray_kernel import ray_hit
-from flylog.sim.textures import texture_column, texture_value_numpy, value_noise_1d_numpy
+from flylog.sim.rotated import sample_colour, sample_truth, warps
+from flylog.sim.textures import texture_column, value_noise_1d_numpy
 
 GROUND = -1
 SKY = -2
@@ -89,14 +91,16 @@ def _camera_rays(rig: StereoRig, pose: Pose2D, side: str) -> tuple[float, float,
     mx, my, _ = rig.camera_position(side)
     c, s = math.cos(pose.theta), math.sin(pose.theta)
     ox, oy = pose.x + c * mx - s * my, pose.y + s * mx + c * my
-    lateral = -(np.arange(rig.width) - rig.cx) / rig.focal_px  # base_link y per metre of depth
+    cx = rig.cx if side == "left" else rig.cx_right
+    lateral = -(np.arange(rig.width) - cx) / rig.focal_px  # base_link y per metre of depth
     return ox, oy, np.stack([c - s * lateral, s + c * lateral], axis=1)
 
 
 def _cyclopean_centre(rig: StereoRig, pose: Pose2D) -> np.ndarray:
     """World (x, y) of the point midway between the two optical centres."""
-    mx, _, _ = rig.camera_position("left")
-    return np.array([pose.x + math.cos(pose.theta) * mx, pose.y + math.sin(pose.theta) * mx])
+    mx, my = rig.mount_x, rig.mount_y
+    c, s = math.cos(pose.theta), math.sin(pose.theta)
+    return np.array([pose.x + (c * mx - s * my), pose.y + (s * mx + c * my)])
 
 
 def sky_pattern(rig: StereoRig, dirs: np.ndarray, feature: float) -> tuple[np.ndarray, np.ndarray]:
@@ -113,18 +117,24 @@ def sky_pattern(rig: StereoRig, dirs: np.ndarray, feature: float) -> tuple[np.nd
 
 
 class Renderer:
-    """Renders a scene from the robot's true pose; the scene is compiled once."""
+    """Renders a scene from the robot's true pose; the scene is compiled once. A rig that is
+    not level is drawn through level cameras (:mod:`flylog.sim.rotated`)."""
 
     def __init__(self, scene: Scene, rig: StereoRig) -> None:
         self.scene = scene
         self.rig = rig
         self._arrays = _scene_arrays(scene)
+        self._warps = None if rig.is_level else warps(rig)
 
-    def _run(self, pose: Pose2D, sides: tuple[str, ...], want_color: bool):
-        rig, a, fp = self.rig, self._arrays, self._arrays.fp
+    def _run(
+        self, pose: Pose2D, rig: StereoRig, sides: tuple[str, ...], want_color: bool
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Level cameras ``sides`` of ``rig``: (cams, H, W, 3) images (none without
+        ``want_color``), the first camera's depth and ids."""
+        a, fp = self._arrays, self._arrays.fp
         origins = np.zeros((len(sides), 2))
         dirs = np.zeros((len(sides), rig.width, 2))
-        centre = _cyclopean_centre(rig, pose)
+        centre = _cyclopean_centre(self.rig, pose)
         for i, side in enumerate(sides):
             ox, oy, d = _camera_rays(rig, pose, side)
             origins[i] = ox, oy
@@ -151,13 +161,25 @@ class Renderer:
 
     def render(self, pose: Pose2D) -> RenderedPair:
         """Both images and the left camera's depth and ids, from the true robot pose."""
-        rgb, depth, ids = self._run(pose, ("left", "right"), want_color=True)
-        return RenderedPair(left=rgb[0], right=rgb[1], depth=depth, ids=ids)
+        if self._warps is None:
+            rgb, depth, ids = self._run(pose, self.rig, ("left", "right"), want_color=True)
+            return RenderedPair(left=rgb[0], right=rgb[1], depth=depth, ids=ids)
+        images = []
+        for warp in self._warps:
+            rgb, level_depth, level_ids = self._run(pose, warp.level, ("left",), True)
+            images.append(sample_colour(rgb[0], warp))
+            if len(images) == 1:
+                depth, ids = sample_truth(level_depth, level_ids, warp)
+        return RenderedPair(left=images[0], right=images[1], depth=depth, ids=ids)
 
     def render_depth(self, pose: Pose2D) -> tuple[np.ndarray, np.ndarray]:
         """The left camera's (depth, ids) only: ground truth for the metrics."""
-        _, depth, ids = self._run(pose, ("left",), want_color=False)
-        return depth, ids
+        if self._warps is None:
+            _, depth, ids = self._run(pose, self.rig, ("left",), want_color=False)
+            return depth, ids
+        warp = self._warps[0]
+        _, depth, ids = self._run(pose, warp.level, ("left",), want_color=False)
+        return sample_truth(depth, ids, warp)
 
 
 # No nnan/ninf fast-math: depth uses inf for the sky.
@@ -307,95 +329,3 @@ def _render_column(
             base = gcolor[ch] if hit == -1 else ocolor[hit, ch]
             val = min(max(base * gain, 0.0), 1.0)
             rgb[cam, v, u, ch] = np.uint8(math.floor(val * 255.0 + 0.5))
-
-
-def render_reference(scene: Scene, rig: StereoRig, pose: Pose2D) -> RenderedPair:
-    """Plain-numpy reference of :meth:`Renderer.render`: every candidate surface of every
-    pixel is computed and the nearest taken (no sorting, no early exit)."""
-    a = _scene_arrays(scene)
-    fp = a.fp
-    n = len(fp)
-    slope = (np.arange(rig.height) - rig.cy) / rig.focal_px
-    hc = rig.mount_height
-    down = slope > 0.0
-    with np.errstate(divide="ignore"):
-        t_ground = np.where(down, hc / np.where(down, slope, 1.0), np.inf)
-    images, depth0, ids0 = [], None, None
-    centre = _cyclopean_centre(rig, pose)
-    for side in ("left", "right"):
-        ox, oy, dirs = _camera_rays(rig, pose, side)
-        sky_cols, sky_rows = sky_pattern(rig, dirs[None], a.sky[3])
-        img = np.empty((rig.height, rig.width, 3), dtype=np.uint8)
-        depth = np.empty((rig.height, rig.width))
-        ids = np.empty((rig.height, rig.width), dtype=np.int64)
-        for u in range(rig.width):
-            dx, dy = dirs[u]
-            t_in, t_out, nxs, nys = ray_hits_numpy(fp, ox, oy, dx, dy)
-            z_in = hc - slope[:, None] * t_in[None, :]
-            side_ok = (t_in > 0.0) & (z_in >= 0.0) & (z_in <= fp.height)
-            t_side = np.where(side_ok, t_in, np.inf)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                t_top = (hc - fp.height[None, :]) / slope[:, None]
-            top_ok = (
-                down[:, None]
-                & (hc > fp.height)
-                & (t_top >= np.maximum(t_in, 0.0))
-                & (t_top <= t_out)
-            )
-            t_top = np.where(top_ok, t_top, np.inf)
-            cand = np.concatenate([t_ground[:, None], t_side, t_top], axis=1)  # (H, 1 + 2n)
-            pick = np.argmin(cand, axis=1)
-            best = cand[np.arange(rig.height), pick]
-            hit = np.where(pick == 0, -1, (pick - 1) % max(n, 1))
-            hit = np.where(np.isinf(best), -2, hit)
-            top = pick > n
-            depth[:, u], ids[:, u] = best, hit
-            img[:, u] = _shade_column_numpy(a, hc, rig.focal_px, ox, oy, centre, dx, dy, slope,
-                                            best, hit, top, nxs, nys, sky_cols[0, u],
-                                            sky_rows)  # fmt: skip
-        images.append(img)
-        if depth0 is None:
-            depth0, ids0 = depth, ids
-    assert depth0 is not None and ids0 is not None
-    return RenderedPair(images[0], images[1], depth0.astype(np.float32), ids0.astype(np.int16))
-
-
-def _shade_column_numpy(
-    a, hc, f, ox, oy, centre, dx, dy, slope, best, hit, top, nxs, nys, sky_col, sky_rows
-) -> np.ndarray:
-    fp = a.fp
-    k = np.maximum(hit, 0)
-    obstacle = hit >= 0
-    flat = ~obstacle | top
-    finite = np.where(np.isinf(best), 0.0, best)
-    px, py = ox + finite * dx, oy + finite * dy
-    nx = np.where(flat, 0.0, nxs[k]) if len(fp) else np.zeros_like(px)
-    ny = np.where(flat, 0.0, nys[k]) if len(fp) else np.zeros_like(px)
-    nz = np.where(flat, 1.0, 0.0)
-    if len(fp):
-        along = np.where(fp.kind[k] == DISC, fp.hx[k] * np.arctan2(ny, nx), -ny * px + nx * py)
-    else:
-        along = px
-    sky = hit == -2
-    s = np.where(flat, px, along)
-    t = np.where(flat, py, hc - slope * finite)
-    seed = np.where(obstacle, 2 + 2 * k + top, 0)
-    feat = np.where(obstacle, fp.feature_size[k], a.ground_feature) if len(fp) else a.ground_feature
-    contrast = (
-        np.where(obstacle, fp.contrast[k], a.ground_contrast) if len(fp) else a.ground_contrast
-    )
-    grazing = np.maximum(slope / np.sqrt(1.0 + slope * slope), _MIN_INCIDENCE_COS)
-    ex, ey = px - centre[0], py - centre[1]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        facing = np.abs(nx * ex + ny * ey) / np.sqrt(ex * ex + ey * ey)
-    incidence = np.where(nz > 0.0, grazing, np.maximum(np.nan_to_num(facing), _MIN_INCIDENCE_COS))
-    footprint = np.where(sky, 1.0, finite / f / incidence)
-    tex = texture_value_numpy(s, t, seed, feat, footprint)
-    lambert = np.maximum(nx * a.light[0] + ny * a.light[1] + nz * a.light[2], 0.0)
-    gain = (1.0 + contrast * (2.0 * tex - 1.0)) * (a.ambient + (1.0 - a.ambient) * lambert)
-    base = np.where(obstacle[:, None], fp.color[k] if len(fp) else 0.0, a.ground_color)
-    val = np.clip(base * gain[:, None], 0.0, 1.0)
-    sky_tex = 0.5 + 2.0 * (sky_col - 0.5) * (sky_rows - 0.5)
-    sky_val = np.clip(a.sky[:3] * (1.0 + a.sky[4] * (2.0 * sky_tex - 1.0))[:, None], 0.0, 1.0)
-    val = np.where(sky[:, None], sky_val, val)
-    return np.floor(val * 255.0 + 0.5).astype(np.uint8)

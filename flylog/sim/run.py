@@ -69,6 +69,9 @@ class SimulationOptions:
     frame_rate: float | None = None  # Hz overriding the scene's
     log: LogConfig = LogConfig()
     limits: Limits = DEFAULT_LIMITS  # the job is refused before it starts if over them
+    # StereoRig fields overriding the scene's camera after the resolution (tilt, roll, pan,
+    # principal_point, doffs: pixels of the final resolution)
+    camera: tuple[tuple[str, object], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -83,13 +86,14 @@ class SimulationSummary:
 
 
 def effective_scene(scene: Scene, options: SimulationOptions) -> Scene:
-    """The scene with the command-line overrides (resolution, frame rate) applied."""
+    """The scene with the command-line overrides (resolution, frame rate, camera) applied."""
     rig = scene.spec.camera
     if options.resolution is not None:
-        w, h = options.resolution
-        rig = dataclasses.replace(rig, width=w, height=h, focal_px=rig.focal_px * w / rig.width)
+        rig = rig.resized(*options.resolution)
     if options.frame_rate is not None:
         rig = dataclasses.replace(rig, frame_rate=options.frame_rate)
+    if options.camera:
+        rig = dataclasses.replace(rig, **dict(options.camera))  # type: ignore[arg-type]
     spec = dataclasses.replace(scene.spec, camera=rig)
     return dataclasses.replace(scene, spec=spec)
 

@@ -139,6 +139,83 @@ def _fitness_figures(pair: StereoPair, rig: StereoRig) -> list[dict]:
     ]
 
 
+def _rig_kernel_figures(pair: StereoPair, rig: StereoRig) -> list[dict]:
+    """The real camera's kernel against the level-only kernel it generalises
+    (tests/benchmarks/level_fitness.py), on the same flies in the same run, alternated:
+    its level fast path (the fixture logs' rigs), its general path on the same level rig
+    (the fast path's flag cleared: the same numbers), and the general path on a tilted,
+    rolled rig with an off-centre principal point and doffs. Parallel: the best wall time of
+    9 rounds; one thread: the median of 30 paired ratios of this thread's CPU time."""
+    import dataclasses
+
+    from flylog.fly.fitness import fitness_into
+    from flylog.geometry.kernels import LEVEL
+    from tests.benchmarks.level_fitness import level_constants, level_fitness
+
+    rng = np.random.default_rng(0)
+    n = 1_000_000
+    u, v = rng.uniform(3, rig.width - 4, n), rng.uniform(3, rig.height - 4, n)
+    depth = 1.0 / rng.uniform(1 / 20.0, 1 / 0.5, n)
+    xyz = np.ascontiguousarray(rig.backproject(u, v, depth))
+    real = dataclasses.replace(rig, tilt=15.0, roll=2.0, principal_point=(330.0, 230.0), doffs=4.0)
+    tilted = np.ascontiguousarray(real.backproject(u, v, depth))  # the same image spread
+    h, w, c = pair.left.shape
+    rows = (pair.left.reshape(h, w * c), pair.right.reshape(h, w * c), c)
+    index = np.arange(n, dtype=np.int64)
+    general = rig.constants()
+    general[LEVEL] = 0.0
+    kernels = {  # name: (flies, constants; None: the level-only kernel)
+        "level-only": (xyz, None),
+        "fast": (xyz, rig.constants()),
+        "general": (xyz, general),
+        "tilted": (tilted, real.constants()),
+    }
+    outs = {name: np.empty(n) for name in kernels}
+
+    def call(name: str, parallel: bool, count: int) -> None:
+        points, k = kernels[name]
+        if k is None:
+            level_fitness(*rows, points, index[:count], level_constants(rig), outs[name],
+                          parallel=parallel)  # fmt: skip
+        else:
+            fitness_into(*rows, points, index[:count], k, 7, 1.0, 1, outs[name],
+                         parallel_min=0 if parallel else n + 1)  # fmt: skip
+
+    figures = []
+    for parallel, count, repeats in ((True, n, 9), (False, 200_000, 31)):
+        clock = time.perf_counter if parallel else time.thread_time
+        times: dict[str, list[float]] = {name: [] for name in kernels}
+        for name in kernels:
+            call(name, parallel, 1000)  # compile
+        for _ in range(repeats):  # alternated: the same load on every kernel
+            for name in kernels:
+                t0 = clock()
+                call(name, parallel, count)
+                times[name].append(clock() - t0)
+        for name in ("fast", "general"):
+            np.testing.assert_array_equal(outs[name][:count], outs["level-only"][:count])
+        ref = np.array(times["level-only"][1:])
+        ratios = {}
+        for name in ("fast", "general", "tilted"):
+            t = np.array(times[name][1:])
+            ratios[name] = float(ref.min() / t.min() if parallel else np.median(ref / t))
+        mode = "parallel" if parallel else "one thread"
+        figures.append(
+            {
+                "name": f"fitness evaluations, real-camera rig kernel, {mode}, level rig",
+                "value": count / min(times["fast"]),
+                "unit": "eval/s",
+                "reference": "level-only kernel",
+                "ratio": ratios["fast"],
+                "note": f"its general path on the same flies {ratios['general']:.3f}×; tilted "
+                f"15°, rolled 2°, off-centre principal point, doffs 4 px {ratios['tilted']:.3f}× "
+                f"({(outs['tilted'][:count] >= 0).mean():.0%} of those flies valid, "
+                f"{(outs['fast'][:count] >= 0).mean():.0%} of the level ones)",
+            }
+        )
+    return figures
+
+
 def _generation_figures(pair, depth, reading, rig) -> list[dict]:
     engine = FlyEngine(EngineConfig(flies=5000), rig, np.random.default_rng(0))
     engine.set_images(pair)
@@ -400,6 +477,7 @@ def run(out_dir: Path) -> list[dict]:
     pair, depth, reading = _frame(rig)
     return (
         _fitness_figures(pair, rig)
+        + _rig_kernel_figures(pair, rig)
         + _generation_figures(pair, depth, reading, rig)
         + _profile_figures(pair, reading, rig)
         + _log_rhythm_figures(out_dir)

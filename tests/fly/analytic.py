@@ -12,7 +12,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from flylog.geometry import Pose2D, StereoRig
-from flylog.geometry.stereo import OPTICAL_TO_BASE
 from flylog.sensors import SonarConfig, SonarReading, StereoPair
 
 Box = tuple[tuple[float, float, float], tuple[float, float, float]]  # (lo, hi) in world
@@ -77,14 +76,14 @@ def render(
     """The stereo pair seen from robot ``pose`` (default: the origin) and the left depth map
     (m along the optical axis, inf = nothing)."""
     pose = Pose2D() if pose is None else pose
-    rot = _world_rotation(pose) @ OPTICAL_TO_BASE
+    rot = _world_rotation(pose) @ rig.rotation()
     v, u = np.mgrid[0 : rig.height, 0 : rig.width].astype(np.float64)
-    optical = np.stack(
-        [(u - rig.cx) / rig.focal_px, (v - rig.cy) / rig.focal_px, np.ones_like(u)], axis=-1
-    ).reshape(-1, 3)
-    dirs = optical @ rot.T  # unit optical z, so t is the depth along the optical axis
     images, depth = [], None
-    for side in ("left", "right"):
+    for side, cx in (("left", rig.cx), ("right", rig.cx_right)):
+        optical = np.stack(
+            [(u - cx) / rig.focal_px, (v - rig.cy) / rig.focal_px, np.ones_like(u)], axis=-1
+        ).reshape(-1, 3)
+        dirs = optical @ rot.T  # unit optical z, so t is the depth along the optical axis
         cam = np.array(rig.camera_position(side))
         origin = np.array([pose.x, pose.y, 0.0]) + _world_rotation(pose) @ cam
         t = _cast(origin, dirs, scene)
@@ -136,5 +135,5 @@ def on_surface_share(pop_xyz: np.ndarray, fitness: np.ndarray, depth: np.ndarray
     """Share of the flies above the median fitness within 5 % of the true depth."""
     top = pop_xyz[fitness > np.median(fitness)]
     truth = true_depth_at(depth, rig, top)
-    fly_depth = top[:, 0] - rig.mount_x
+    fly_depth = rig.project(top)[3]
     return float(np.mean(np.abs(fly_depth - truth) <= 0.05 * fly_depth))

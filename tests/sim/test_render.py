@@ -5,7 +5,8 @@ import pytest
 
 from flylog.geometry import Pose2D, StereoRig
 from flylog.scene import load_scene, parse_scene
-from flylog.sim.render import GROUND, SKY, Renderer, render_reference
+from flylog.sim.render import GROUND, SKY, Renderer
+from tests.sim.render_reference import render_reference
 
 FIXTURES = Path(__file__).resolve().parents[2] / "fixtures" / "scenes"
 SMALL = StereoRig(width=64, height=48, focal_px=50.0, baseline=0.12, mount_height=0.5)
