@@ -14,7 +14,7 @@ import io
 import os
 import struct
 import warnings
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Generator, Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 from typing import BinaryIO
@@ -94,6 +94,7 @@ class LogReader:
         self._topics: dict[str, TopicInfo] | None = None
         self._times: tuple[int, int] = (0, 0)
         self._metadata: list[Metadata] | None = None
+        self._said: set[str] = set()  # damage already reported
 
     @property
     def complete(self) -> bool:
@@ -128,10 +129,19 @@ class LogReader:
             self._times = (lo or 0, hi)
             self._scan = state
             self._scan_count = sum(counts.values())
-            for text, category in self._scan_report(state, self._scan_count, None):
-                if category is not TruncatedLogWarning:  # reported when messages are read
-                    warnings.warn(text, category, stacklevel=4)
+            report = self._scan_report(state, self._scan_count, None)
+            # a cut is reported when messages are read, with what they recovered
+            report = [(text, c) for text, c in report if c is not TruncatedLogWarning]
+            for text, category in self._unsaid(report):
+                warnings.warn(text, category, stacklevel=4)
         return self._scan
+
+    def _unsaid(self, report: list[tuple[str, type[Warning]]]) -> list[tuple[str, type[Warning]]]:
+        """The warnings of ``report`` this reader has not given yet (a log whose summary is
+        damaged is read whole for its topics, then for its messages: one warning)."""
+        out = [(text, category) for text, category in report if text not in self._said]
+        self._said.update(text for text, _ in out)
+        return out
 
     def _scan_report(
         self, state: ScanState, count: int, wanted: frozenset[str] | None
@@ -143,7 +153,7 @@ class LogReader:
             out.append(
                 (
                     f"{self.path}: {self._checked.damage}; read front to back from its data "
-                    f"section instead ({count} messages{which})",
+                    "section instead",
                     DamagedLogWarning,
                 )
             )
@@ -296,7 +306,7 @@ class LogReader:
                 for raw in in_log_time_order(scanned, MAX_WRITE_LAG_NS):
                     count += 1
                     yield raw
-        damage.extend(self._scan_report(state, count, wanted))
+        damage.extend(self._unsaid(self._scan_report(state, count, wanted)))
 
     def _raw_indexed(
         self,
@@ -331,14 +341,14 @@ class LogReader:
 
     def messages(
         self, topics: Iterable[str] | None = None, *, read_ahead: int = 0
-    ) -> Iterator[LogMessage]:
+    ) -> Generator[LogMessage, None, None]:
         """Messages in log-time order, each decoded into plain values by its schema.
 
         With ``read_ahead`` > 0, a background thread reads, decompresses and decodes up to
         that many messages ahead of the consumer (see :mod:`flylog.io.readahead`)."""
         decode = Decoding(self.path)
         damage: list[tuple[str, type[Warning]]] = []
-        decoded = (decode(raw) for raw in self._raw(topics, damage))
+        decoded: Iterator[LogMessage] = (decode(raw) for raw in self._raw(topics, damage))
         if read_ahead > 0:
             decoded = read_ahead_of(decoded, read_ahead)
         yield from decoded

@@ -12,7 +12,7 @@ import io
 import itertools
 import struct
 import zlib
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import IO
 
@@ -109,7 +109,7 @@ def _parse(opcode: int, body: bytes) -> list[object]:
         return [Message.read(stream, len(body))]
     if opcode == Opcode.ATTACHMENT:
         return [checked_attachment(body)]
-    readers = {
+    readers: dict[int, Callable[[ReadDataStream], object]] = {
         Opcode.SCHEMA: Schema.read,
         Opcode.CHANNEL: Channel.read,
         Opcode.METADATA: Metadata.read,
@@ -131,7 +131,7 @@ def _indexed_count(body: bytes) -> int | None:
     return length // 16
 
 
-_NAMES = {
+_NAMES: dict[int, str] = {
     Opcode.CHUNK: "chunk",
     Opcode.MESSAGE: "message",
     Opcode.SCHEMA: "schema",

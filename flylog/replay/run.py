@@ -11,6 +11,7 @@ from pathlib import Path
 from flylog.config import to_mapping
 from flylog.errors import LogError
 from flylog.io import contract
+from flylog.io.fingerprint import log_fingerprint
 from flylog.io.pairing import pair_stereo
 from flylog.io.reader import open_log
 from flylog.io.tables import Column, TableWriter
@@ -112,6 +113,7 @@ def replay(
         msg = f"replay would overwrite its input {log}: choose another --output"
         raise LogError(msg)
     reader = open_log(log)
+    fingerprint = log_fingerprint(log)
     inputs = replay_inputs(reader, goal=goal)
     duration = (inputs.end_ns - inputs.start_ns) / 1e9
     existed = table.exists()
@@ -150,6 +152,7 @@ def replay(
                 {
                     "config": json.dumps(to_mapping(config)),
                     "log": str(log),
+                    "log_fingerprint": fingerprint,
                     "goal": json.dumps(list(inputs.goal)),
                     "generations": str(stats.generations),
                     "evaluations": str(stats.evaluations),

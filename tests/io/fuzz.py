@@ -4,9 +4,11 @@
 Accepted outcomes:
 
 - ``identical``: read like the original, no warning;
+- ``warned``: read like the original, with a DamagedLogWarning naming what is damaged (a
+  summary, say, when the data section holds every message);
 - ``recovered``: a DamagedLogWarning (or TruncatedLogWarning) names what was skipped and the
   messages lost, and what was read is the original's messages in order with some left out
-  (nothing changed, nothing invented); the warning may also come with nothing lost;
+  (nothing changed, nothing invented);
 - ``error``: a flylog LogError.
 
 Failures: ``exception`` (any other exception), ``silent`` (a read that differs from the
@@ -41,7 +43,7 @@ import numpy as np
 
 from .mutate import mutate
 
-ACCEPTED = ("identical", "recovered", "error")
+ACCEPTED = ("identical", "warned", "recovered", "error")
 FAILURES = ("exception", "silent", "invented", "hang")
 TIME_LIMIT_S = 5.0
 
@@ -118,6 +120,8 @@ def classify(original: Reading, path: Path) -> tuple[str, str]:
         return "exception", f"{type(exc).__name__}: {exc}"
     if not damage:
         return ("identical", "") if got == original else ("silent", _difference(original, got))
+    if got == original:
+        return "warned", damage[0]  # read whole, with a warning about what is damaged
     if _is_subsequence(got.messages, original.messages) and _is_subsequence(
         got.attachments, original.attachments
     ):
