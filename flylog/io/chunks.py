@@ -115,6 +115,7 @@ def indexed_messages(
     summary: Summary,
     topics: Iterable[str] | None = None,
     skipped: list[str] | None = None,
+    shift: int = 0,
 ) -> Iterator[RawMessage]:
     """The messages on ``topics`` (all if None) of a log with a summary, in log-time order,
     ties in file order: chunks are read when their start time comes up and merged with the
@@ -122,7 +123,9 @@ def indexed_messages(
 
     A chunk that cannot be read (not where its index says, not the chunk its index
     describes, a CRC mismatch, bad compressed data) is skipped and named in ``skipped``
-    (ValueError when ``skipped`` is None)."""
+    (ValueError when ``skipped`` is None). With a ``shift`` (the data section changed
+    length: :class:`flylog.io.summary.CheckedSummary`), a chunk not found where its index
+    says is looked for ``shift`` bytes further."""
     wanted = None if topics is None else frozenset(topics)
     channels, schemas = summary.channels, summary.schemas
     ids = None if wanted is None else {i for i, c in channels.items() if c.topic in wanted}
@@ -139,7 +142,7 @@ def indexed_messages(
             yield item
             continue
         try:
-            records = _read_chunk(fh, item)
+            records = _chunk_at(fh, item, shift)
             found = []
             for index, record in records:
                 if not isinstance(record, Message):
@@ -163,8 +166,17 @@ def indexed_messages(
             heapq.heappush(heap, entry)
 
 
-def _read_chunk(fh: IO[bytes], index: ChunkIndex) -> list[tuple[int, ChunkRecord]]:
-    fh.seek(index.chunk_start_offset)
+def _chunk_at(fh: IO[bytes], index: ChunkIndex, shift: int) -> list[tuple[int, ChunkRecord]]:
+    try:
+        return _read_chunk(fh, index)
+    except Exception:
+        if not shift:
+            raise
+    return _read_chunk(fh, index, shift)
+
+
+def _read_chunk(fh: IO[bytes], index: ChunkIndex, shift: int = 0) -> list[tuple[int, ChunkRecord]]:
+    fh.seek(index.chunk_start_offset + shift)
     record = fh.read(index.chunk_length)
     if len(record) < _RECORD.size + _CHUNK.size:
         msg = f"the chunk at byte {index.chunk_start_offset} lies past the end of the file"

@@ -10,17 +10,13 @@ all is a LogError naming the file and the part damaged.
 
 from __future__ import annotations
 
-import io
 import os
-import struct
 import warnings
 from collections.abc import Generator, Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 from typing import BinaryIO
 
-from mcap.data_stream import ReadDataStream
-from mcap.opcode import Opcode
 from mcap.records import Metadata
 from mcap.summary import Summary
 
@@ -28,6 +24,7 @@ from flylog.errors import LogError
 from flylog.io import contract
 from flylog.io.chunks import indexed_messages
 from flylog.io.decode import Decoding, schema_name
+from flylog.io.indexed import indexed_attachments, indexed_metadata
 from flylog.io.pairing import pair_stereo
 from flylog.io.readahead import read_ahead as read_ahead_of
 from flylog.io.records import LogAttachment, LogMessage, TopicInfo
@@ -36,7 +33,6 @@ from flylog.io.scan import (
     RawMessage,
     ScanState,
     TruncatedLogWarning,
-    checked_attachment,
     in_log_time_order,
     scan_messages,
 )
@@ -226,19 +222,8 @@ class LogReader:
         if self._summary is None:
             found = self._scanned().attachments
         else:
-            found, skipped = [], []
             with self.path.open("rb") as fh, _reading(self.path, "an attachment"):
-                for index in self._summary.attachment_indexes:
-                    try:
-                        body = _record_at(fh, index.offset, index.length, Opcode.ATTACHMENT)
-                        attachment = checked_attachment(body)
-                        if attachment.name != index.name:
-                            msg = f"it is named '{attachment.name}'"
-                            raise ValueError(msg)
-                    except Exception as exc:  # skipped, and said so below
-                        skipped.append(f"'{index.name}' at byte {index.offset} ({exc})")
-                        continue
-                    found.append(attachment)
+                found, skipped = indexed_attachments(fh, self._summary, self._checked.shift)
             if skipped:
                 text = f"{self.path}: skipped damaged attachment(s) {'; '.join(skipped)}"
                 warnings.warn(text, DamagedLogWarning, stacklevel=2)
@@ -251,28 +236,15 @@ class LogReader:
             found = self._scanned().metadata
         else:
             if self._metadata is None:  # a few small records, asked for by several readers
-                self._metadata = self._indexed_metadata(self._summary)
+                with self.path.open("rb") as fh, _reading(self.path, "a metadata record"):
+                    self._metadata, skipped = indexed_metadata(
+                        fh, self._summary, self._checked.shift
+                    )
+                if skipped:
+                    text = f"{self.path}: skipped damaged metadata {'; '.join(skipped)}"
+                    warnings.warn(text, DamagedLogWarning, stacklevel=2)
             found = self._metadata
         return {m.name: dict(m.metadata) for m in found}
-
-    def _indexed_metadata(self, summary: Summary) -> list[Metadata]:
-        found, skipped = [], []
-        with self.path.open("rb") as fh, _reading(self.path, "a metadata record"):
-            for index in summary.metadata_indexes:
-                try:
-                    body = _record_at(fh, index.offset, index.length, Opcode.METADATA)
-                    record = Metadata.read(ReadDataStream(io.BytesIO(body)))
-                    if record.name != index.name:
-                        msg = f"it is named '{record.name}'"
-                        raise ValueError(msg)
-                except Exception as exc:  # skipped, and said so below
-                    skipped.append(f"'{index.name}' at byte {index.offset} ({exc})")
-                    continue
-                found.append(record)
-        if skipped:
-            text = f"{self.path}: skipped damaged metadata {'; '.join(skipped)}"
-            warnings.warn(text, DamagedLogWarning, stacklevel=3)
-        return found
 
     # ---- messages -------------------------------------------------------------------------
 
@@ -320,7 +292,7 @@ class LogReader:
         skipped: list[str] = []
         count = 0
         with _reading(self.path, "a chunk"):
-            for raw in indexed_messages(fh, summary, wanted, skipped):
+            for raw in indexed_messages(fh, summary, wanted, skipped, self._checked.shift):
                 count += 1
                 yield raw
         stats = summary.statistics
@@ -330,6 +302,14 @@ class LogReader:
             for i, n in stats.channel_message_counts.items()
             if wanted is None or summary.channels[i].topic in wanted
         )
+        shift = self._checked.shift
+        if shift:
+            text = (
+                f"{self.path}: its data section is {abs(shift)} bytes "
+                f"{'longer' if shift > 0 else 'shorter'} than its summary says (a span "
+                "inserted or lost): the records after that point are read where they lie"
+            )
+            damage.extend(self._unsaid([(text, DamagedLogWarning)]))
         if skipped or count != listed:
             which = "" if wanted is None else f" on {', '.join(sorted(wanted))}"
             where = f"skipped {'; '.join(skipped)}: " if skipped else ""
@@ -360,23 +340,6 @@ class LogReader:
         stream = self.messages([contract.LEFT_IMAGE, contract.RIGHT_IMAGE])
         for m in pair_stereo(stream, tolerance_ns=tolerance_ns):
             yield m.value
-
-
-_RECORD = struct.Struct("<BQ")
-
-
-def _record_at(fh: BinaryIO, offset: int, length: int, opcode: int) -> bytes:
-    """The body of the record of ``opcode`` an index places at ``offset``, ``length`` long."""
-    fh.seek(offset)
-    record = fh.read(length)
-    if len(record) < _RECORD.size:
-        msg = "it lies past the end of the file"
-        raise ValueError(msg)
-    found, body_length = _RECORD.unpack_from(record)
-    if found != opcode or _RECORD.size + body_length != len(record):
-        msg = f"the index points at a record of opcode {found:#04x}, {len(record)} bytes"
-        raise ValueError(msg)
-    return record[_RECORD.size :]
 
 
 def require_topics(reader: LogReader, needed: Iterable[str] | Mapping[str, str]) -> None:

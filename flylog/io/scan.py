@@ -10,6 +10,7 @@ from __future__ import annotations
 import heapq
 import io
 import itertools
+import mmap
 import struct
 import zlib
 from collections.abc import Callable, Iterator
@@ -76,12 +77,50 @@ def _read_record(fh: IO[bytes], offset: int) -> tuple[int, bytes] | None:
     if length > MAX_RECORD_BYTES:
         msg = f"record at byte {offset} claims {length} bytes"
         raise _Damaged(msg)
+    if not Opcode.HEADER <= opcode <= MAX_OPCODE:
+        msg = f"no MCAP record starts at byte {offset} (opcode {opcode:#04x})"
+        raise _Damaged(msg)
     body = fh.read(length)
     if len(body) < length:
         msg = f"file is cut inside a record (opcode {opcode:#04x}) starting at byte {offset}"
         raise _Damaged(msg)
     # the summary section follows DataEnd; its records repeat what the data section holds
     return None if opcode in (Opcode.DATA_END, Opcode.FOOTER) else (opcode, body)
+
+
+# The highest opcode of the MCAP records (DataEnd); a higher one is taken for damage.
+MAX_OPCODE = 0x0F
+# A compressed chunk's compression field: its length and name, 37 bytes into the record.
+_CHUNK_MARKERS = (b"\x03\x00\x00\x00lz4", b"\x04\x00\x00\x00zstd")
+_MARKER_AT = 9 + 28
+
+
+def next_chunk(fh: IO[bytes], start: int) -> int | None:
+    """The offset of the first intact compressed chunk at or after byte ``start`` (its
+    compression field found, then the whole record parsed and CRC-checked), or None.
+
+    How a front-to-back reading resumes after damage that hides where the next record
+    starts (an inserted or deleted span): the chunks after it are whole. Chunks without
+    compression have no field distinctive enough to search for; none are found."""
+    try:
+        view = mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ)
+    except (OSError, ValueError, io.UnsupportedOperation):
+        return None
+    with view:
+        at = {m: view.find(m, start + _MARKER_AT) for m in _CHUNK_MARKERS}
+        while any(p >= 0 for p in at.values()):
+            marker = min((p, m) for m, p in at.items() if p >= 0)[1]
+            where = at[marker] - _MARKER_AT
+            at[marker] = view.find(marker, at[marker] + 1)
+            opcode, length = struct.unpack_from("<BQ", view, where)
+            if opcode != Opcode.CHUNK or where + 9 + length > len(view):
+                continue
+            try:
+                chunk_records(view[where + 9 : where + 9 + length])
+            except Exception:  # not a chunk, or a damaged one: search on
+                continue
+            return where
+    return None
 
 
 _ATTACHMENT_CRC = struct.Struct("<I")
@@ -159,8 +198,16 @@ def scan_messages(
         try:
             found = _read_record(fh, offset)
         except _Damaged as exc:
-            state.damage = str(exc)
-            return
+            resume = next_chunk(fh, offset + 1)
+            if resume is None:
+                state.damage = str(exc)
+                return
+            state.skipped.append(f"bytes {offset} to {resume} ({exc})")
+            state.lost_unknown = True
+            counting = False
+            offset = resume
+            fh.seek(offset)
+            continue
         if found is None:
             return
         opcode, body = found
@@ -198,15 +245,23 @@ def scan_messages(
         for record in records:
             if isinstance(record, Message):
                 channel = state.channels.get(record.channel_id)
-                if channel is None:  # its channel record was in a skipped chunk
+                lacking = (
+                    "channel"
+                    if channel is None
+                    else "schema"
+                    if channel.schema_id and channel.schema_id not in state.schemas
+                    else None
+                )
+                if lacking is not None:  # that record was in a skipped chunk
                     if record.channel_id not in state.unknown_channels:
                         state.unknown_channels.add(record.channel_id)
                         state.skipped.append(
                             f"the messages of channel {record.channel_id} from byte {at} on "
-                            "(its channel record is lost)"
+                            f"(its {lacking} record is lost)"
                         )
                     state.lost += 1
                     continue
+                assert channel is not None
                 if topics is None or channel.topic in topics:
                     yield RawMessage(state.schemas.get(channel.schema_id), channel, record)
             elif isinstance(record, Schema):

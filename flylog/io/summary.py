@@ -45,13 +45,16 @@ class CheckedSummary:
     ``summary`` is None when the log has none (unfinished, cut, or written without one) or
     when it is damaged; ``damage`` then says what is wrong (None: simply absent).
     ``start`` is the summary section's offset (0 without one); ``crc`` the footer's
-    summary CRC (0: not computed by the writer)."""
+    summary CRC (0: not computed by the writer). ``shift``: how many bytes the data
+    section grew (shrank, if negative) since the summary was written; the records after the
+    change lie that much further than the summary's offsets say."""
 
     summary: Summary | None
     damage: str | None = None
     start: int = 0
     crc: int = 0
     ends_with_magic: bool = False
+    shift: int = 0
 
 
 def read_checked_summary(fh: IO[bytes]) -> CheckedSummary:
@@ -72,14 +75,15 @@ def read_checked_summary(fh: IO[bytes]) -> CheckedSummary:
     if not len(MAGIC) <= start <= end or not (offsets == 0 or start <= offsets <= end):
         what = f"its footer points at byte {start}, outside the file"
         return CheckedSummary(None, what, ends_with_magic=True)
-    if crc != 0 and _crc_of(fh, start, end, offsets) != crc:
-        what = (
-            "its summary does not match the file (the summary CRC differs: the summary is "
-            "damaged, or the data section before it changed length)"
-        )
-        return CheckedSummary(None, what, start, crc, ends_with_magic=True)
-    fh.seek(start)
-    body = fh.read(end - start)
+    found = start
+    if crc != 0 and _crc_of(fh, start, end, start, offsets) != crc:
+        moved = _moved_summary(fh, start, end, offsets, crc)
+        if moved is None:
+            what = "its summary section is damaged (the summary CRC does not match)"
+            return CheckedSummary(None, what, start, crc, ends_with_magic=True)
+        found = moved
+    fh.seek(found)
+    body = fh.read(end - found)
     try:
         summary = _parsed(body)
     except Exception as exc:  # a record the writer cannot have written
@@ -89,16 +93,45 @@ def read_checked_summary(fh: IO[bytes]) -> CheckedSummary:
     if stats is None or (stats.message_count and not summary.chunk_indexes):
         # no counts to check against, or messages outside chunks: the data section tells
         return CheckedSummary(None, start=start, crc=crc, ends_with_magic=True)
-    problem = inconsistency(summary, start)
+    problem = inconsistency(summary, max(start, found))
     if problem is not None:
-        return CheckedSummary(None, f"its summary {problem}", start, crc, ends_with_magic=True)
-    return CheckedSummary(summary, None, start, crc, ends_with_magic=True)
+        return CheckedSummary(None, f"its summary {problem}", found, crc, ends_with_magic=True)
+    return CheckedSummary(summary, None, found, crc, ends_with_magic=True, shift=found - start)
 
 
-def _crc_of(fh: IO[bytes], start: int, end: int, offsets: int) -> int:
-    fh.seek(start)
+# DataEnd's opcode and length: the record just before the summary section.
+_DATA_END = bytes([Opcode.DATA_END]) + struct.pack("<Q", 4)
+_DATA_END_SIZE = _RECORD.size + 4
+# How far before the footer a moved summary is looked for, and how many places are tried.
+_MOVED_WINDOW = 64 << 20
+_MOVED_TRIES = 16
+
+
+def _moved_summary(fh: IO[bytes], start: int, end: int, offsets: int, crc: int) -> int | None:
+    """Where the summary section starts if its records are intact but the data section
+    before it changed length (a span inserted or deleted, a record lost or repeated): the
+    summary CRC matches the bytes after a DataEnd record found nearer the footer or
+    further from it. None if no such place is found."""
+    lo = max(len(MAGIC), end - _MOVED_WINDOW)
+    fh.seek(lo)
+    window = fh.read(end - lo)
+    at = len(window)
+    for _ in range(_MOVED_TRIES):
+        at = window.rfind(_DATA_END, 0, at)
+        if at < 0:
+            return None
+        candidate = lo + at + _DATA_END_SIZE
+        if candidate != start and _crc_of(fh, candidate, end, start, offsets) == crc:
+            return candidate
+    return None
+
+
+def _crc_of(fh: IO[bytes], begin: int, end: int, start: int, offsets: int) -> int:
+    """The summary CRC of the bytes from ``begin`` to ``end`` and a footer holding
+    ``start`` and ``offsets``."""
+    fh.seek(begin)
     crc = 0
-    left = end - start
+    left = end - begin
     while left > 0:
         block = fh.read(min(left, _CRC_BLOCK))
         if not block:

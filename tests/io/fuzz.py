@@ -125,7 +125,8 @@ def classify(original: Reading, path: Path) -> tuple[str, str]:
     if _is_subsequence(got.messages, original.messages) and _is_subsequence(
         got.attachments, original.attachments
     ):
-        return "recovered", damage[0]
+        kept = len(got.messages) / max(1, len(original.messages))
+        return "recovered", f"kept {kept:.4f} of the messages; {damage[0]}"
     return "invented", f"{_difference(original, got)}; warned: {damage[0]}"
 
 
@@ -181,11 +182,13 @@ class _Worker:
 
 def run(
     logs: list[Path], mutants: int, *, workers: int = 2, first_seed: int = 0
-) -> tuple[dict[str, Counter[str]], list[dict[str, Any]]]:
+) -> tuple[dict[str, Counter[str]], list[dict[str, Any]], dict[str, list[float]]]:
     """Classify ``mutants`` seeded mutants of each log in ``workers`` processes; the counts
-    per log and class, and the failing mutants (log, seed, class, damage, detail)."""
+    per log and class, the failing mutants (log, seed, class, damage, detail), and the
+    share of the messages each recovered read kept."""
     jobs = [{"log": str(log), "seed": first_seed + k} for log in logs for k in range(mutants)][::-1]
     counts: dict[str, Counter[str]] = {str(log): Counter() for log in logs}
+    kept: dict[str, list[float]] = {str(log): [] for log in logs}
     failures: list[dict[str, Any]] = []
     with tempfile.TemporaryDirectory(prefix="flylog-fuzz-") as scratch:
         pool = [_Worker(Path(scratch)) for _ in range(max(1, workers))]
@@ -212,6 +215,8 @@ def run(
                         else {"class": "exception", "how": "", "detail": "the worker died"}
                     )
                     counts[w.job["log"]][result["class"]] += 1
+                    if result["class"] == "recovered":
+                        kept[w.job["log"]].append(float(result["detail"].split()[1]))
                     if result["class"] in FAILURES:
                         failures.append({"log": w.job["log"], **w.job, **result})
                     w.job = None
@@ -227,7 +232,7 @@ def run(
         finally:
             for w in pool:
                 w.stop()
-    return counts, failures
+    return counts, failures, kept
 
 
 def rechunked(source: Path, target: Path, *, chunk_size: int, compression: str = "lz4") -> Path:
@@ -271,16 +276,30 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--mutants", type=int, default=5000, help="mutants per log")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--seed", type=int, default=0, help="seed of the first mutant")
+    parser.add_argument(
+        "--lz4-copy",
+        type=int,
+        metavar="BYTES",
+        help="also fuzz a copy of each log in lz4 chunks of BYTES (many chunks)",
+    )
     parser.add_argument("--worker", type=Path, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.worker is not None:
         worker(args.worker)
         return 0
     t0 = time.perf_counter()
-    counts, failures = run(args.logs, args.mutants, workers=args.workers, first_seed=args.seed)
+    with tempfile.TemporaryDirectory(prefix="flylog-fuzz-logs-") as copies:
+        logs = list(args.logs)
+        if args.lz4_copy:
+            for log in args.logs:
+                copy = Path(copies) / f"{log.stem}.lz4-{args.lz4_copy}.mcap"
+                logs.append(rechunked(log, copy, chunk_size=args.lz4_copy))
+        counts, failures, kept = run(logs, args.mutants, workers=args.workers, first_seed=args.seed)
     for log, found in counts.items():
         shown = ", ".join(f"{c} {found[c]}" for c in (*ACCEPTED, *FAILURES))
         print(f"{log}: {sum(found.values())} mutants: {shown}")
+        if kept[log]:
+            print(f"  recovered reads kept {100 * np.mean(kept[log]):.1f} % of the messages")
     for f in failures[:20]:
         print(f"FAIL {f['class']}: {f['log']} seed {f['seed']} ({f['how']}): {f['detail']}")
     total = sum(sum(c.values()) for c in counts.values())

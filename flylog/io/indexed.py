@@ -1,0 +1,82 @@
+"""Attachments and metadata records of a finished log, read where its summary indexes
+them and checked: the record's opcode, length and name must be the index's, an
+attachment's CRC must match. A record that fails is skipped and named (the caller warns).
+"""
+
+from __future__ import annotations
+
+import io
+import struct
+from typing import IO
+
+from mcap.data_stream import ReadDataStream
+from mcap.opcode import Opcode
+from mcap.records import Attachment, Metadata
+from mcap.summary import Summary
+
+from flylog.io.scan import checked_attachment
+
+_RECORD = struct.Struct("<BQ")
+
+
+def record_at(fh: IO[bytes], offset: int, length: int, opcode: int, shift: int = 0) -> bytes:
+    """The body of the record of ``opcode`` an index places at ``offset``, ``length`` long,
+    or ``shift`` bytes further (the data section changed length); ValueError if neither."""
+    try:
+        return _record_at(fh, offset, length, opcode)
+    except ValueError:
+        if not shift:
+            raise
+    return _record_at(fh, offset + shift, length, opcode)
+
+
+def _record_at(fh: IO[bytes], offset: int, length: int, opcode: int) -> bytes:
+    fh.seek(offset)
+    record = fh.read(length)
+    if len(record) < _RECORD.size:
+        msg = "it lies past the end of the file"
+        raise ValueError(msg)
+    found, body_length = _RECORD.unpack_from(record)
+    if found != opcode or _RECORD.size + body_length != len(record):
+        msg = f"the index points at a record of opcode {found:#04x}, {len(record)} bytes"
+        raise ValueError(msg)
+    return record[_RECORD.size :]
+
+
+def indexed_attachments(
+    fh: IO[bytes], summary: Summary, shift: int = 0
+) -> tuple[list[Attachment], list[str]]:
+    """The attachments the summary indexes, and a description of each one skipped."""
+    found, skipped = [], []
+    for index in summary.attachment_indexes:
+        try:
+            body = record_at(fh, index.offset, index.length, Opcode.ATTACHMENT, shift)
+            attachment = checked_attachment(body)
+            if attachment.name != index.name:
+                msg = f"it is named '{attachment.name}'"
+                raise ValueError(msg)
+        except Exception as exc:  # skipped, and named
+            skipped.append(f"'{index.name}' at byte {index.offset} ({exc})")
+            continue
+        found.append(attachment)
+    return found, skipped
+
+
+def indexed_metadata(
+    fh: IO[bytes], summary: Summary, shift: int = 0
+) -> tuple[list[Metadata], list[str]]:
+    """The metadata records the summary indexes, and a description of each one skipped
+    (MCAP gives them no CRC: a record is skipped only when it cannot be parsed)."""
+    found, skipped = [], []
+    for index in summary.metadata_indexes:
+        try:
+            body = record_at(fh, index.offset, index.length, Opcode.METADATA, shift)
+            record = Metadata.read(ReadDataStream(io.BytesIO(body)))
+            if record.name != index.name:
+                msg = f"it is named '{record.name}'"
+                raise ValueError(msg)
+        except Exception as exc:  # skipped, and named
+            skipped.append(f"'{index.name}' at byte {index.offset} ({exc})")
+            continue
+        found.append(record)
+    return found, skipped
