@@ -335,6 +335,16 @@ class LogReader:
         for text, category in damage:
             warnings.warn(text, category, stacklevel=2)
 
+    def first(self, topic: str) -> LogMessage:
+        """The first message on ``topic``; LogError if none can be read (the topic is
+        absent, or every chunk holding it is damaged)."""
+        for message in self.messages([topic]):
+            return message
+        counted = self.topics().get(topic)
+        why = "has none" if counted is None else f"lists {counted.count} but none can be read"
+        msg = f"{self.path}: no message on {topic} (the log {why})"
+        raise LogError(msg)
+
     def stereo_pairs(self, *, tolerance_ns: int = 5_000_000) -> Iterator[StereoPair]:
         """The log's stereo pairs, streamed (see ``pair_stereo``)."""
         stream = self.messages([contract.LEFT_IMAGE, contract.RIGHT_IMAGE])

@@ -77,7 +77,7 @@ def read_rig(reader: LogReader, scene: Scene) -> StereoRig:
         return from_mapping(StereoRig, data, source=source)
     rig = scene.spec.camera
     if contract.LEFT_CALIBRATION in reader.topics():
-        first = next(iter(reader.messages([contract.LEFT_CALIBRATION]))).value
+        first = reader.first(contract.LEFT_CALIBRATION).value
         return StereoRig(
             width=first.width,
             height=first.height,

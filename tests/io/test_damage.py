@@ -177,3 +177,19 @@ def test_a_garbled_schema_is_a_log_error_naming_the_topic(tmp_path):
         LogError, match=rf"bad-schema\.mcap: cannot decode the message on {contract.ODOM}"
     ):
         list(open_log(bad).messages([contract.ODOM]))
+
+
+def test_the_first_message_of_a_topic_whose_chunks_are_lost_is_a_log_error(chunked, tmp_path):
+    sample, _, _ = chunked
+    data = bytearray(sample.path.read_bytes())
+    at = data.index(b"lz4") + 20  # inside the first chunk's compressed records
+    data[at : at + 16] = bytes(16)
+    bad = tmp_path / "first.mcap"
+    bad.write_bytes(bytes(data))
+    log = open_log(bad)
+    assert log.first(contract.ODOM).topic == contract.ODOM
+    with (
+        pytest.warns(DamagedLogWarning),
+        pytest.raises(LogError, match=r"no message on /camera/left/calibration \(the log lists 1"),
+    ):
+        log.first(contract.LEFT_CALIBRATION)
