@@ -1,8 +1,11 @@
 """Reading an MCAP file front to back without its summary: how unfinished logs (writer
-killed, no footer) and logs cut anywhere, even inside a chunk, are read up to the damage.
+killed, no footer), logs cut anywhere, even inside a chunk, and logs whose summary is
+damaged are read from their data section.
 
 Every record is read whole (its length is in its header) before it is parsed, so a cut
-record is recognised as damage rather than half-parsed; chunks are CRC-checked.
+record is recognised as damage rather than half-parsed; chunks and attachments are
+CRC-checked. A whole record that fails is skipped and the reading goes on; damage that
+hides where the next record starts is read past to the next intact compressed chunk.
 """
 
 from __future__ import annotations
