@@ -44,21 +44,27 @@ def _record_at(fh: IO[bytes], offset: int, length: int, opcode: int) -> bytes:
 
 
 def indexed_attachments(
-    fh: IO[bytes], summary: Summary, shift: int = 0
+    fh: IO[bytes], summary: Summary, shift: int = 0, *, require_crcs: bool = True
 ) -> tuple[list[Attachment], list[str]]:
-    """The attachments the summary indexes, and a description of each one skipped."""
+    """The attachments the summary indexes, each where its index says or ``shift`` bytes
+    further (the first that passes its checks), and a description of each one skipped."""
     found, skipped = [], []
     for index in summary.attachment_indexes:
-        try:
-            body = record_at(fh, index.offset, index.length, Opcode.ATTACHMENT, shift)
-            attachment = checked_attachment(body)
-            if attachment.name != index.name:
-                msg = f"it is named '{attachment.name}'"
-                raise ValueError(msg)
-        except Exception as exc:  # skipped, and named
-            skipped.append(f"'{index.name}' at byte {index.offset} ({exc})")
-            continue
-        found.append(attachment)
+        failure: Exception | None = None
+        for offset in (index.offset, index.offset + shift) if shift else (index.offset,):
+            try:
+                body = _record_at(fh, offset, index.length, Opcode.ATTACHMENT)
+                attachment = checked_attachment(body, require_crc=require_crcs)
+                if attachment.name != index.name:
+                    msg = f"it is named '{attachment.name}'"
+                    raise ValueError(msg)
+            except Exception as exc:  # tried further, or skipped and named
+                failure = failure or exc
+                continue
+            found.append(attachment)
+            break
+        else:
+            skipped.append(f"'{index.name}' at byte {index.offset} ({failure})")
     return found, skipped
 
 

@@ -93,6 +93,12 @@ class LogReader:
         self._said: set[str] = set()  # damage already reported
 
     @property
+    def _require_crcs(self) -> bool:
+        """Whether an attachment CRC of 0 is damage: unless the footer says its writer
+        computes no CRCs (a summary CRC of 0)."""
+        return not (self._checked.ends_with_magic and self._checked.crc == 0)
+
+    @property
     def complete(self) -> bool:
         """Whether the log was finished by its writer and its summary is intact."""
         return self._summary is not None
@@ -109,7 +115,7 @@ class LogReader:
         """A front-to-back pass over a log without its summary, for its topics, times and
         records; a DamagedLogWarning names what it had to skip."""
         if self._scan is None:
-            state = ScanState()
+            state = ScanState(require_crcs=self._require_crcs)
             counts: dict[str, int] = {}
             schemas: dict[str, str] = {}
             lo, hi = None, 0
@@ -223,7 +229,9 @@ class LogReader:
             found = self._scanned().attachments
         else:
             with self.path.open("rb") as fh, _reading(self.path, "an attachment"):
-                found, skipped = indexed_attachments(fh, self._summary, self._checked.shift)
+                found, skipped = indexed_attachments(
+                    fh, self._summary, self._checked.shift, require_crcs=self._require_crcs
+                )
             if skipped:
                 text = f"{self.path}: skipped damaged attachment(s) {'; '.join(skipped)}"
                 warnings.warn(text, DamagedLogWarning, stacklevel=2)
@@ -271,7 +279,7 @@ class LogReader:
             # its package version (~25 ms of every reading command's start).
             from flylog.io.writer import MAX_WRITE_LAG_NS
 
-            state = ScanState()
+            state = ScanState(require_crcs=self._require_crcs)
             count = 0
             with _reading(self.path, "the data section"):
                 scanned = scan_messages(fh, state, topics=wanted)

@@ -63,6 +63,7 @@ class ScanState:
     lost_unknown: bool = False  # a skipped chunk whose message count is unknown
     unknown_channels: set[int] = field(default_factory=set)
     seen: dict[tuple[int, int, bytes], int] = field(default_factory=dict)  # record → offset
+    require_crcs: bool = True  # an attachment CRC of 0 is damage (see checked_attachment)
 
 
 class _Damaged(Exception):
@@ -129,20 +130,25 @@ def next_chunk(fh: IO[bytes], start: int) -> int | None:
 _ATTACHMENT_CRC = struct.Struct("<I")
 
 
-def checked_attachment(body: bytes) -> Attachment:
-    """An attachment record, after checking its CRC (0: not computed)."""
+def checked_attachment(body: bytes, *, require_crc: bool = True) -> Attachment:
+    """An attachment record, after checking its CRC. A CRC of 0 means "not computed"; with
+    ``require_crc`` it is damage: a writer that computes CRCs (mcap's, flylog's) always
+    does, and a record read where another one's bytes now lie can end in four zeroes."""
     record = Attachment.read(ReadDataStream(io.BytesIO(body)))
     if len(body) < _ATTACHMENT_CRC.size:
         msg = "attachment record shorter than its CRC"
         raise ValueError(msg)
     (crc,) = _ATTACHMENT_CRC.unpack_from(body, len(body) - _ATTACHMENT_CRC.size)
+    if crc == 0 and require_crc:
+        msg = f"attachment '{record.name}' has no CRC, where its log's writer computes them"
+        raise ValueError(msg)
     if crc != 0 and zlib.crc32(memoryview(body)[: -_ATTACHMENT_CRC.size]) != crc:
         msg = f"attachment '{record.name}' CRC mismatch"
         raise ValueError(msg)
     return record
 
 
-def _parse(opcode: int, body: bytes) -> list[object]:
+def _parse(opcode: int, body: bytes, require_crcs: bool) -> list[object]:
     """The records a record body holds (a chunk holds several)."""
     if opcode == Opcode.CHUNK:
         return [record for _, record in chunk_records(body)]
@@ -150,7 +156,7 @@ def _parse(opcode: int, body: bytes) -> list[object]:
     if opcode == Opcode.MESSAGE:
         return [Message.read(stream, len(body))]
     if opcode == Opcode.ATTACHMENT:
-        return [checked_attachment(body)]
+        return [checked_attachment(body, require_crc=require_crcs)]
     readers: dict[int, Callable[[ReadDataStream], object]] = {
         Opcode.SCHEMA: Schema.read,
         Opcode.CHANNEL: Channel.read,
@@ -236,7 +242,7 @@ def scan_messages(
                 state.skipped.append(f"the {what} at byte {at} (a copy of the one at byte {first})")
                 continue
         try:
-            records = _parse(opcode, body)
+            records = _parse(opcode, body, state.require_crcs)
         except Exception as exc:
             what = _NAMES.get(opcode, f"record (opcode {opcode:#04x})")
             state.skipped.append(f"the {what} at byte {at} ({type(exc).__name__}: {exc})")

@@ -193,3 +193,14 @@ def test_the_first_message_of_a_topic_whose_chunks_are_lost_is_a_log_error(chunk
         pytest.raises(LogError, match=r"no message on /camera/left/calibration \(the log lists 1"),
     ):
         log.first(contract.LEFT_CALIBRATION)
+
+
+def test_an_attachment_whose_crc_turned_to_zeroes_is_skipped(tmp_path):
+    sample = write_sample(tmp_path / "att0.mcap")
+    data = bytearray(sample.path.read_bytes())
+    end = data.index(b"[scene]\nname = 'test'\n") + len(b"[scene]\nname = 'test'\n")
+    data[end : end + 4] = bytes(4)  # its CRC reads "not computed", its summary's does not
+    bad = tmp_path / "bad-att0.mcap"
+    bad.write_bytes(bytes(data))
+    with pytest.warns(DamagedLogWarning, match="has no CRC, where its log's writer computes"):
+        assert open_log(bad).attachments() == []
