@@ -19,18 +19,8 @@ from flylog.io.scan import checked_attachment
 _RECORD = struct.Struct("<BQ")
 
 
-def record_at(fh: IO[bytes], offset: int, length: int, opcode: int, shift: int = 0) -> bytes:
-    """The body of the record of ``opcode`` an index places at ``offset``, ``length`` long,
-    or ``shift`` bytes further (the data section changed length); ValueError if neither."""
-    try:
-        return _record_at(fh, offset, length, opcode)
-    except ValueError:
-        if not shift:
-            raise
-    return _record_at(fh, offset + shift, length, opcode)
-
-
 def _record_at(fh: IO[bytes], offset: int, length: int, opcode: int) -> bytes:
+    """The body of the record of ``opcode`` an index places at ``offset``, ``length`` long."""
     fh.seek(offset)
     record = fh.read(length)
     if len(record) < _RECORD.size:
@@ -71,18 +61,24 @@ def indexed_attachments(
 def indexed_metadata(
     fh: IO[bytes], summary: Summary, shift: int = 0
 ) -> tuple[list[Metadata], list[str]]:
-    """The metadata records the summary indexes, and a description of each one skipped
-    (MCAP gives them no CRC: a record is skipped only when it cannot be parsed)."""
+    """The metadata records the summary indexes, each where its index says or ``shift``
+    bytes further (the first that parses with its index's name), and a description of each
+    one skipped. MCAP gives them no CRC: a record is skipped only when it cannot be parsed."""
     found, skipped = [], []
     for index in summary.metadata_indexes:
-        try:
-            body = record_at(fh, index.offset, index.length, Opcode.METADATA, shift)
-            record = Metadata.read(ReadDataStream(io.BytesIO(body)))
-            if record.name != index.name:
-                msg = f"it is named '{record.name}'"
-                raise ValueError(msg)
-        except Exception as exc:  # skipped, and named
-            skipped.append(f"'{index.name}' at byte {index.offset} ({exc})")
-            continue
-        found.append(record)
+        failure: Exception | None = None
+        for offset in (index.offset, index.offset + shift) if shift else (index.offset,):
+            try:
+                body = _record_at(fh, offset, index.length, Opcode.METADATA)
+                record = Metadata.read(ReadDataStream(io.BytesIO(body)))
+                if record.name != index.name:
+                    msg = f"it is named '{record.name}'"
+                    raise ValueError(msg)
+            except Exception as exc:  # tried further, or skipped and named
+                failure = failure or exc
+                continue
+            found.append(record)
+            break
+        else:
+            skipped.append(f"'{index.name}' at byte {index.offset} ({failure})")
     return found, skipped
