@@ -3,7 +3,7 @@ by replay in the run's metadata, :mod:`flylog.io.fingerprint`) and digests of th
 and metrics configurations (in the metrics summary).
 
 ``flylog metrics`` refuses to score a run against a log other than the one it was replayed
-from (a wrong ``--log`` gives plausible, wrong figures: precision 0.006 for 0.776);
+from (a wrong ``--log`` gives figures that look plausible and are wrong);
 ``flylog compare`` warns when its sides were scored against different logs or with
 different configurations.
 """
