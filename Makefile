@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 DEMO_DIR := demo-out
 
-.PHONY: demo test lint bench fixtures experiments docs clean bytecode
+.PHONY: demo test lint bench fuzz fixtures experiments docs clean bytecode
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -34,6 +34,12 @@ test: lint
 
 bench: $(STAMP)
 	$(BIN)/python -m tests.benchmarks
+
+# The reader on 10,000 seeded mutants: 5,000 of a one-chunk fixture and 5,000 of its copy in
+# lz4 chunks of 64 KiB (17 chunks), two worker processes, 5 s a mutant (docs/log-integrity.md).
+fuzz: $(STAMP)
+	$(BIN)/python -m tests.io.fuzz fixtures/logs/near-obstacle.mcap --lz4-copy 65536 \
+		--mutants 5000 --workers 2
 
 experiments: $(STAMP)
 	$(BIN)/flylog experiment all -o docs/experiments

@@ -26,7 +26,7 @@ if TYPE_CHECKING:
         TopicInfo,
         Transform,
     )
-    from flylog.io.scan import TruncatedLogWarning
+    from flylog.io.scan import DamagedLogWarning, TruncatedLogWarning
     from flylog.io.writer import Compression, LogConfig, LogWriter
 
 # public name → the submodule defining it
@@ -46,6 +46,7 @@ _WHERE = {
     "Overlay": "records",
     "TopicInfo": "records",
     "Transform": "records",
+    "DamagedLogWarning": "scan",
     "TruncatedLogWarning": "scan",
     "Compression": "writer",
     "LogConfig": "writer",
@@ -57,6 +58,7 @@ __all__ = [
     "Calibration",
     "Compression",
     "CylinderShape",
+    "DamagedLogWarning",
     "FlyCloud",
     "GridValues",
     "LogAttachment",

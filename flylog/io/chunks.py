@@ -111,11 +111,21 @@ def _records(data: memoryview) -> list[tuple[int, ChunkRecord]]:
 
 
 def indexed_messages(
-    fh: IO[bytes], summary: Summary, topics: Iterable[str] | None = None
+    fh: IO[bytes],
+    summary: Summary,
+    topics: Iterable[str] | None = None,
+    skipped: list[str] | None = None,
+    shift: int = 0,
 ) -> Iterator[RawMessage]:
     """The messages on ``topics`` (all if None) of a log with a summary, in log-time order,
     ties in file order: chunks are read when their start time comes up and merged with the
-    messages of the chunks read before (a heap keyed by log time, chunk offset, index)."""
+    messages of the chunks read before (a heap keyed by log time, chunk offset, index).
+
+    A chunk that cannot be read (not where its index says, not the chunk its index
+    describes, a CRC mismatch, bad compressed data) is skipped and named in ``skipped``
+    (ValueError when ``skipped`` is None). With a ``shift`` (the data section changed
+    length: :class:`flylog.io.summary.CheckedSummary`), a chunk not found where its index
+    says is looked for ``shift`` bytes further."""
     wanted = None if topics is None else frozenset(topics)
     channels, schemas = summary.channels, summary.schemas
     ids = None if wanted is None else {i for i, c in channels.items() if c.topic in wanted}
@@ -131,25 +141,59 @@ def indexed_messages(
         if isinstance(item, RawMessage):
             yield item
             continue
-        for index, record in _read_chunk(fh, item):
-            if not isinstance(record, Message):
-                continue
-            channel = channels[record.channel_id]
-            if wanted is not None and channel.topic not in wanted:
-                continue
-            schema = schemas[channel.schema_id] if channel.schema_id else None
-            raw = RawMessage(schema, channel, record)
-            heapq.heappush(heap, (record.log_time, offset, index, raw))
+        try:
+            records = _chunk_at(fh, item, shift)
+            found = []
+            for index, record in records:
+                if not isinstance(record, Message):
+                    continue
+                channel = channels.get(record.channel_id)
+                if channel is None:
+                    msg = f"a message of channel {record.channel_id}, which the summary lacks"
+                    raise ValueError(msg)
+                if wanted is not None and channel.topic not in wanted:
+                    continue
+                schema = schemas[channel.schema_id] if channel.schema_id else None
+                found.append((record.log_time, offset, index, RawMessage(schema, channel, record)))
+        except Exception as exc:  # damage inside the chunk, or where it should be
+            if skipped is None:
+                raise
+            skipped.append(
+                f"the chunk at byte {item.chunk_start_offset} ({type(exc).__name__}: {exc})"
+            )
+            continue
+        for entry in found:
+            heapq.heappush(heap, entry)
 
 
-def _read_chunk(fh: IO[bytes], index: ChunkIndex) -> list[tuple[int, ChunkRecord]]:
-    fh.seek(index.chunk_start_offset)
+def _chunk_at(fh: IO[bytes], index: ChunkIndex, shift: int) -> list[tuple[int, ChunkRecord]]:
+    try:
+        return _read_chunk(fh, index)
+    except Exception:
+        if not shift:
+            raise
+    return _read_chunk(fh, index, shift)
+
+
+def _read_chunk(fh: IO[bytes], index: ChunkIndex, shift: int = 0) -> list[tuple[int, ChunkRecord]]:
+    fh.seek(index.chunk_start_offset + shift)
     record = fh.read(index.chunk_length)
-    if len(record) < _RECORD.size:
+    if len(record) < _RECORD.size + _CHUNK.size:
         msg = f"the chunk at byte {index.chunk_start_offset} lies past the end of the file"
         raise ValueError(msg)
     opcode, length = _RECORD.unpack_from(record, 0)
-    if opcode != Opcode.CHUNK or _RECORD.size + length > len(record):
+    if opcode != Opcode.CHUNK or _RECORD.size + length != len(record):
         msg = f"the chunk index points at byte {index.chunk_start_offset}, not at a chunk"
         raise ValueError(msg)
-    return chunk_records(memoryview(record)[_RECORD.size : _RECORD.size + length])
+    records = chunk_records(memoryview(record)[_RECORD.size : _RECORD.size + length])
+    # The chunk's CRC vouches for its messages; their times say whether it is the chunk
+    # the index describes (a duplicated or moved record puts another chunk there).
+    times = [r.log_time for _, r in records if isinstance(r, Message)]
+    if times and (min(times), max(times)) != (index.message_start_time, index.message_end_time):
+        msg = (
+            f"the chunk at byte {index.chunk_start_offset} holds messages from {min(times)} "
+            f"to {max(times)} ns, its index says {index.message_start_time} to "
+            f"{index.message_end_time} ns"
+        )
+        raise ValueError(msg)
+    return records

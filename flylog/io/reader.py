@@ -1,39 +1,42 @@
 """Streaming MCAP reading: ``for m in open_log(path).messages([ODOM]): ...``.
 
 Messages come in log-time order, decoded into plain values (``flylog.io.decode``), with
-bounded memory: a finished log is read chunk by chunk through its index; an unfinished or
-cut log is read front to back up to the damage, then a TruncatedLogWarning says so.
+bounded memory: a finished log is read chunk by chunk through its checked summary; an
+unfinished or cut log, or one whose summary is damaged, is read front to back from its data
+section. Damage is never silent: what cannot be read is skipped and a DamagedLogWarning (a
+TruncatedLogWarning for a cut log) names it and the messages lost; what cannot be read at
+all is a LogError naming the file and the part damaged.
 """
 
 from __future__ import annotations
 
-import json
 import os
 import warnings
-from collections.abc import Callable, Generator, Iterable, Iterator, Mapping
+from collections.abc import Generator, Iterable, Iterator, Mapping
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, BinaryIO
+from typing import BinaryIO
 
-from mcap.reader import SeekingReader
-from mcap.records import Channel, Metadata, Schema
+from mcap.records import Metadata
 from mcap.summary import Summary
-from mcap_protobuf.decoder import DecoderFactory
 
 from flylog.errors import LogError
 from flylog.io import contract
 from flylog.io.chunks import indexed_messages
-from flylog.io.decode import DECODERS, image, is_foxglove_raw_image, raw_image_fields
+from flylog.io.decode import Decoding, schema_name
+from flylog.io.indexed import indexed_attachments, indexed_metadata
 from flylog.io.pairing import pair_stereo
 from flylog.io.readahead import read_ahead as read_ahead_of
 from flylog.io.records import LogAttachment, LogMessage, TopicInfo
 from flylog.io.scan import (
-    MAGIC,
+    DamagedLogWarning,
     RawMessage,
     ScanState,
     TruncatedLogWarning,
     in_log_time_order,
     scan_messages,
 )
+from flylog.io.summary import MAGIC, CheckedSummary, read_checked_summary
 from flylog.sensors import StereoPair
 
 
@@ -43,6 +46,7 @@ def open_log(path: str | os.PathLike[str]) -> LogReader:
     try:
         with path.open("rb") as fh:
             magic = fh.read(len(MAGIC))
+            checked = read_checked_summary(fh) if magic == MAGIC else None
     except FileNotFoundError:
         msg = f"{path}: no such file"
         raise LogError(msg) from None
@@ -52,77 +56,137 @@ def open_log(path: str | os.PathLike[str]) -> LogReader:
     except OSError as exc:
         msg = f"{path}: cannot be read ({exc.strerror})"
         raise LogError(msg) from None
-    if magic != MAGIC:
+    if checked is None:
         msg = f"{path} is not an MCAP file (it does not start with the MCAP magic bytes)"
         raise LogError(msg)
-    return LogReader(path, _read_summary(path))
+    return LogReader(path, checked)
 
 
-def _read_summary(path: Path) -> Summary | None:
-    """The summary section, or None if the log has none or its end is damaged."""
+@contextmanager
+def _reading(path: Path, what: str) -> Iterator[None]:
+    """Any failure but flylog's own while reading ``what`` of ``path`` as a LogError."""
     try:
-        with path.open("rb") as fh:
-            fh.seek(-len(MAGIC), os.SEEK_END)
-            if fh.read() != MAGIC:
-                return None
-            fh.seek(0)
-            summary = SeekingReader(fh).get_summary()
-    except Exception:  # a damaged end is what the front-to-back path is for
-        return None
-    if summary is None or summary.statistics is None:
-        return None
-    return summary
+        yield
+    except LogError:
+        raise
+    except Exception as exc:  # a damaged file can make any parser fail
+        msg = f"{path}: {what} is damaged ({type(exc).__name__}: {exc})"
+        raise LogError(msg) from None
 
 
 class LogReader:
     """A log opened for reading. Each iteration opens its own file handle, so several may
-    run at once (images and odometry, say) and nothing needs closing."""
+    run at once (images and odometry, say) and nothing needs closing.
 
-    def __init__(self, path: Path, summary: Summary | None) -> None:
+    A finished log whose summary passes its checks (:mod:`flylog.io.summary`) is read
+    chunk by chunk through it; any other is read front to back from its data section."""
+
+    def __init__(self, path: Path, checked: CheckedSummary) -> None:
         self.path = path
-        self._summary = summary
+        self._checked = checked
+        self._summary = checked.summary
         self._scan: ScanState | None = None
+        self._scan_count = 0
         self._topics: dict[str, TopicInfo] | None = None
         self._times: tuple[int, int] = (0, 0)
         self._metadata: list[Metadata] | None = None
+        self._said: set[str] = set()  # damage already reported
 
-    def _indexed(self, fh: BinaryIO, *, validate_crcs: bool = False) -> SeekingReader:
-        """mcap's reader over ``fh`` of a finished log, given the summary read at open.
-
-        Why: mcap's SeekingReader parses the whole summary section on first use (every chunk
-        and message index: ~1500 records, ~20 ms, on the reference 60 s run) and keeps it
-        in ``_summary``; each attachment, metadata or message query makes a new reader.
-        """
-        reader = SeekingReader(fh, validate_crcs=validate_crcs)
-        reader._summary = self._summary  # mcap 1.x's cache; a renamed one is only a miss
-        return reader
+    @property
+    def _require_crcs(self) -> bool:
+        """Whether an attachment CRC of 0 is damage: unless the footer says its writer
+        computes no CRCs (a summary CRC of 0)."""
+        return not (self._checked.ends_with_magic and self._checked.crc == 0)
 
     @property
     def complete(self) -> bool:
-        """Whether the log was finished by its writer (it has a summary)."""
+        """Whether the log was finished by its writer and its summary is intact."""
         return self._summary is not None
+
+    @property
+    def damage(self) -> str | None:
+        """What stopped the front-to-back reading of a log without an intact summary
+        (None: it reached the end of the data section, or the log has its summary)."""
+        return None if self._summary is not None else self._scanned().damage
 
     # ---- what the log holds ---------------------------------------------------------------
 
     def _scanned(self) -> ScanState:
-        """A front-to-back pass over an unfinished log, for its topics, times and records."""
+        """A front-to-back pass over a log without its summary, for its topics, times and
+        records; a DamagedLogWarning names what it had to skip."""
         if self._scan is None:
-            state = ScanState()
+            state = ScanState(require_crcs=self._require_crcs)
             counts: dict[str, int] = {}
             schemas: dict[str, str] = {}
             lo, hi = None, 0
-            with self.path.open("rb") as fh:
+            with self.path.open("rb") as fh, _reading(self.path, "the data section"):
                 for raw in scan_messages(fh, state):
                     topic = raw.channel.topic
                     counts[topic] = counts.get(topic, 0) + 1
-                    schemas[topic] = _schema_name(raw.schema)
+                    schemas[topic] = schema_name(raw.schema)
                     t = raw.message.log_time
                     lo = t if lo is None else min(lo, t)
                     hi = max(hi, t)
             self._topics = {t: TopicInfo(schemas[t], counts[t]) for t in sorted(counts)}
             self._times = (lo or 0, hi)
             self._scan = state
+            self._scan_count = sum(counts.values())
+            report = self._scan_report(state, self._scan_count, None)
+            # a cut is reported when messages are read, with what they recovered
+            report = [(text, c) for text, c in report if c is not TruncatedLogWarning]
+            for text, category in self._unsaid(report):
+                warnings.warn(text, category, stacklevel=4)
         return self._scan
+
+    def _unsaid(self, report: list[tuple[str, type[Warning]]]) -> list[tuple[str, type[Warning]]]:
+        """The warnings of ``report`` this reader has not given yet (a log whose summary is
+        damaged is read whole for its topics, then for its messages: one warning)."""
+        out = [(text, category) for text, category in report if text not in self._said]
+        self._said.update(text for text, _ in out)
+        return out
+
+    def _scan_report(
+        self, state: ScanState, count: int, wanted: frozenset[str] | None
+    ) -> list[tuple[str, type[Warning]]]:
+        """The warnings a front-to-back read of ``count`` messages owes its reader."""
+        which = "" if wanted is None else f" on {', '.join(sorted(wanted))}"
+        out: list[tuple[str, type[Warning]]] = []
+        if self._checked.damage is not None:
+            out.append(
+                (
+                    f"{self.path}: {self._checked.damage}; read front to back from its data "
+                    "section instead",
+                    DamagedLogWarning,
+                )
+            )
+        if state.skipped:
+            lost = f"{state.lost}{' or more' if state.lost_unknown else ''}"
+            out.append(
+                (
+                    f"{self.path}: skipped damaged records ({'; '.join(state.skipped)}): "
+                    f"{lost} messages lost, {count} read{which}",
+                    DamagedLogWarning,
+                )
+            )
+        if state.damage is not None:
+            if self._checked.ends_with_magic:
+                text = (
+                    f"{self.path}: the log is damaged ({state.damage}): nothing after it "
+                    f"can be read; recovered {count} intact messages{which}"
+                )
+            else:
+                text = (
+                    f"{self.path}: the log is truncated or unfinished ({state.damage}); "
+                    f"recovered {count} intact messages{which}"
+                )
+            out.append((text, TruncatedLogWarning))
+        elif not self._checked.ends_with_magic:
+            text = (
+                f"{self.path}: the log is truncated inside its summary section (its data "
+                f"section is whole); recovered {count} intact messages{which}"
+            )
+            out.append((text, TruncatedLogWarning))
+        return out
 
     def topics(self) -> dict[str, TopicInfo]:
         """topic → (schema name, message count), for topics with at least one message."""
@@ -137,7 +201,7 @@ class LogReader:
             channel = self._summary.channels[channel_id]
             schema = self._summary.schemas.get(channel.schema_id)
             if count:
-                out[channel.topic] = TopicInfo(_schema_name(schema), count)
+                out[channel.topic] = TopicInfo(schema_name(schema), count)
         return dict(sorted(out.items()))
 
     @property
@@ -159,21 +223,34 @@ class LogReader:
         return stats.message_start_time, stats.message_end_time
 
     def attachments(self) -> list[LogAttachment]:
+        """The log's attachments; a damaged one (its CRC does not match) is skipped with a
+        DamagedLogWarning naming it."""
         if self._summary is None:
             found = self._scanned().attachments
         else:
-            with self.path.open("rb") as fh:
-                found = list(self._indexed(fh).iter_attachments())
+            with self.path.open("rb") as fh, _reading(self.path, "an attachment"):
+                found, skipped = indexed_attachments(
+                    fh, self._summary, self._checked.shift, require_crcs=self._require_crcs
+                )
+            if skipped:
+                text = f"{self.path}: skipped damaged attachment(s) {'; '.join(skipped)}"
+                warnings.warn(text, DamagedLogWarning, stacklevel=2)
         return [LogAttachment(a.name, a.media_type, a.log_time, a.data) for a in found]
 
     def metadata(self) -> dict[str, dict[str, str]]:
-        """name → key/value pairs of every metadata record (the last wins on a repeated name)."""
+        """name → key/value pairs of every metadata record (the last wins on a repeated
+        name); a damaged record is skipped with a DamagedLogWarning naming it."""
         if self._summary is None:
             found = self._scanned().metadata
         else:
             if self._metadata is None:  # a few small records, asked for by several readers
-                with self.path.open("rb") as fh:
-                    self._metadata = list(self._indexed(fh).iter_metadata())
+                with self.path.open("rb") as fh, _reading(self.path, "a metadata record"):
+                    self._metadata, skipped = indexed_metadata(
+                        fh, self._summary, self._checked.shift
+                    )
+                if skipped:
+                    text = f"{self.path}: skipped damaged metadata {'; '.join(skipped)}"
+                    warnings.warn(text, DamagedLogWarning, stacklevel=2)
             found = self._metadata
         return {m.name: dict(m.metadata) for m in found}
 
@@ -183,42 +260,72 @@ class LogReader:
         """Undecoded messages in log-time order (a TruncatedLogWarning at the end if the log
         is damaged). A message's ``data`` is a read-only memoryview of its chunk
         (:mod:`flylog.io.chunks`): ``bytes(data)`` to keep it apart."""
-        damage: list[str] = []
+        damage: list[tuple[str, type[Warning]]] = []
         yield from self._raw(topics, damage)
-        for msg in damage:
-            warnings.warn(msg, TruncatedLogWarning, stacklevel=3)
+        for text, category in damage:
+            warnings.warn(text, category, stacklevel=3)
 
-    def _raw(self, topics: Iterable[str] | None, damage: list[str]) -> Iterator[RawMessage]:
+    def _raw(
+        self, topics: Iterable[str] | None, damage: list[tuple[str, type[Warning]]]
+    ) -> Iterator[RawMessage]:
         """:meth:`raw_messages` that appends the damage report to ``damage`` instead of
         warning (warnings are process-wide: a reading thread must not issue them)."""
         wanted = None if topics is None else frozenset(topics)
         with self.path.open("rb") as fh:
             if self._summary is not None:
-                found = indexed_messages(fh, self._summary, wanted)
-                while True:
-                    try:
-                        raw = next(found)
-                    except StopIteration:
-                        return
-                    except Exception as exc:  # a finished log damaged inside: name it
-                        msg = f"{self.path}: damaged log ({type(exc).__name__}: {exc})"
-                        raise LogError(msg) from None
-                    yield raw
+                yield from self._raw_indexed(fh, self._summary, wanted, damage)
+                return
             # Here, not at import: the writer's module imports mcap's writer, which looks up
             # its package version (~25 ms of every reading command's start).
             from flylog.io.writer import MAX_WRITE_LAG_NS
 
-            state = ScanState()
+            state = ScanState(require_crcs=self._require_crcs)
             count = 0
-            for raw in in_log_time_order(scan_messages(fh, state, topics=wanted), MAX_WRITE_LAG_NS):
+            with _reading(self.path, "the data section"):
+                scanned = scan_messages(fh, state, topics=wanted)
+                for raw in in_log_time_order(scanned, MAX_WRITE_LAG_NS):
+                    count += 1
+                    yield raw
+        damage.extend(self._unsaid(self._scan_report(state, count, wanted)))
+
+    def _raw_indexed(
+        self,
+        fh: BinaryIO,
+        summary: Summary,
+        wanted: frozenset[str] | None,
+        damage: list[tuple[str, type[Warning]]],
+    ) -> Iterator[RawMessage]:
+        """The messages of a log with an intact summary; the count read is checked against
+        its statistics, and skipped chunks are reported with the messages they held."""
+        skipped: list[str] = []
+        count = 0
+        with _reading(self.path, "a chunk"):
+            for raw in indexed_messages(fh, summary, wanted, skipped, self._checked.shift):
                 count += 1
                 yield raw
-        if state.damage is not None:
-            which = "" if wanted is None else f" on {', '.join(sorted(wanted))}"
-            damage.append(
-                f"{self.path}: the log is truncated or unfinished ({state.damage}); "
-                f"recovered {count} intact messages{which}"
+        stats = summary.statistics
+        assert stats is not None
+        listed = sum(
+            n
+            for i, n in stats.channel_message_counts.items()
+            if wanted is None or summary.channels[i].topic in wanted
+        )
+        shift = self._checked.shift
+        if shift:
+            text = (
+                f"{self.path}: its data section is {abs(shift)} bytes "
+                f"{'longer' if shift > 0 else 'shorter'} than its summary says (a span "
+                "inserted or lost): the records after that point are read where they lie"
             )
+            damage.extend(self._unsaid([(text, DamagedLogWarning)]))
+        if skipped or count != listed:
+            which = "" if wanted is None else f" on {', '.join(sorted(wanted))}"
+            where = f"skipped {'; '.join(skipped)}: " if skipped else ""
+            text = (
+                f"{self.path}: {where}read {count} of the {listed} messages{which} its "
+                f"summary lists ({listed - count} lost)"
+            )
+            damage.append((text, DamagedLogWarning))
 
     def messages(
         self, topics: Iterable[str] | None = None, *, read_ahead: int = 0
@@ -227,79 +334,30 @@ class LogReader:
 
         With ``read_ahead`` > 0, a background thread reads, decompresses and decodes up to
         that many messages ahead of the consumer (see :mod:`flylog.io.readahead`)."""
-        decode = _Decoding(self.path)
-        damage: list[str] = []
+        decode = Decoding(self.path)
+        damage: list[tuple[str, type[Warning]]] = []
         decoded: Iterator[LogMessage] = (decode(raw) for raw in self._raw(topics, damage))
         if read_ahead > 0:
             decoded = read_ahead_of(decoded, read_ahead)
         yield from decoded
-        for msg in damage:
-            warnings.warn(msg, TruncatedLogWarning, stacklevel=2)
+        for text, category in damage:
+            warnings.warn(text, category, stacklevel=2)
+
+    def first(self, topic: str) -> LogMessage:
+        """The first message on ``topic``; LogError if none can be read (the topic is
+        absent, or every chunk holding it is damaged)."""
+        for message in self.messages([topic]):
+            return message
+        counted = self.topics().get(topic)
+        why = "has none" if counted is None else f"lists {counted.count} but none can be read"
+        msg = f"{self.path}: no message on {topic} (the log {why})"
+        raise LogError(msg)
 
     def stereo_pairs(self, *, tolerance_ns: int = 5_000_000) -> Iterator[StereoPair]:
         """The log's stereo pairs, streamed (see ``pair_stereo``)."""
         stream = self.messages([contract.LEFT_IMAGE, contract.RIGHT_IMAGE])
         for m in pair_stereo(stream, tolerance_ns=tolerance_ns):
             yield m.value
-
-
-def _json_value(data: bytes | memoryview) -> Any:
-    return json.loads(bytes(data))  # json reads bytes, not memoryviews
-
-
-def _schema_name(schema: Schema | None) -> str:
-    return "" if schema is None else schema.name
-
-
-class _Decoding:
-    """Decodes raw messages; one decoder per channel, built on first use."""
-
-    def __init__(self, path: Path) -> None:
-        self._path = path
-        self._protobuf = DecoderFactory()
-        self._decoders: dict[int, Callable[[bytes], Any]] = {}
-
-    def _decoder(self, schema: Schema | None, channel: Channel) -> Callable[[bytes], Any]:
-        parse: Callable[[bytes], Any] | None
-        if channel.message_encoding == contract.JSON_MESSAGE_ENCODING:
-            parse = _json_value
-        else:
-            parse = self._protobuf.decoder_for(channel.message_encoding, schema)
-        if parse is None:
-            msg = (
-                f"{self._path}: topic {channel.topic} has message encoding "
-                f"'{channel.message_encoding}', which flylog cannot decode"
-            )
-            raise LogError(msg)
-        convert = DECODERS.get(_schema_name(schema))
-        if convert is None:
-            return parse
-        if (
-            convert is image
-            and channel.message_encoding == contract.PROTOBUF
-            and schema is not None
-            and is_foxglove_raw_image(schema.data)
-        ):
-            return lambda data: image(raw_image_fields(data))  # pixels not copied
-        return lambda data: convert(parse(data))
-
-    def __call__(self, raw: RawMessage) -> LogMessage:
-        channel, message = raw.channel, raw.message
-        decoder = self._decoders.get(channel.id)
-        if decoder is None:
-            decoder = self._decoders[channel.id] = self._decoder(raw.schema, channel)
-        try:
-            value = decoder(message.data)
-        except LogError as exc:
-            msg = f"{self._path}: {channel.topic} at {message.log_time} ns: {exc}"
-            raise LogError(msg) from None
-        except Exception as exc:  # a message the schema cannot parse
-            msg = (
-                f"{self._path}: cannot decode the message on {channel.topic} at "
-                f"{message.log_time} ns ({type(exc).__name__}: {exc})"
-            )
-            raise LogError(msg) from None
-        return LogMessage(channel.topic, message.log_time, _schema_name(raw.schema), value)
 
 
 def require_topics(reader: LogReader, needed: Iterable[str] | Mapping[str, str]) -> None:
@@ -312,6 +370,9 @@ def require_topics(reader: LogReader, needed: Iterable[str] | Mapping[str, str])
     )
     present = reader.topics()
     missing = [t for t in expected if t not in present]
+    if missing and reader.damage is not None and not present:
+        msg = f"{reader.path} is truncated or damaged ({reader.damage}): it holds no messages"
+        raise LogError(msg)
     if missing:
         listing = ", ".join(f"{t} ({i.schema})" for t, i in present.items()) or "none"
         msg = (

@@ -1,8 +1,11 @@
 """Reading an MCAP file front to back without its summary: how unfinished logs (writer
-killed, no footer) and logs cut anywhere, even inside a chunk, are read up to the damage.
+killed, no footer), logs cut anywhere, even inside a chunk, and logs whose summary is
+damaged are read from their data section.
 
 Every record is read whole (its length is in its header) before it is parsed, so a cut
-record is recognised as damage rather than half-parsed; chunks are CRC-checked.
+record is recognised as damage rather than half-parsed; chunks and attachments are
+CRC-checked. A whole record that fails is skipped and the reading goes on; damage that
+hides where the next record starts is read past to the next intact compressed chunk.
 """
 
 from __future__ import annotations
@@ -10,7 +13,9 @@ from __future__ import annotations
 import heapq
 import io
 import itertools
+import mmap
 import struct
+import zlib
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import IO
@@ -20,15 +25,27 @@ from mcap.opcode import Opcode
 from mcap.records import Attachment, Channel, Message, Metadata, Schema
 
 from flylog.io.chunks import RawMessage, chunk_records
+from flylog.io.summary import MAGIC
 
-__all__ = ["MAGIC", "RawMessage", "ScanState", "TruncatedLogWarning", "scan_messages"]
+__all__ = [
+    "MAGIC",
+    "DamagedLogWarning",
+    "RawMessage",
+    "ScanState",
+    "TruncatedLogWarning",
+    "scan_messages",
+]
 
-MAGIC = b"\x89MCAP0\r\n"
 # A record longer than this is taken for corruption rather than read into memory.
 MAX_RECORD_BYTES = 1 << 31
 
 
-class TruncatedLogWarning(UserWarning):
+class DamagedLogWarning(UserWarning):
+    """A log is damaged: the warning names what was skipped and how many messages it held;
+    everything else was read."""
+
+
+class TruncatedLogWarning(DamagedLogWarning):
     """A log ended early (unfinished or cut); everything before the damage was read."""
 
 
@@ -40,7 +57,13 @@ class ScanState:
     channels: dict[int, Channel] = field(default_factory=dict)
     attachments: list[Attachment] = field(default_factory=list)
     metadata: list[Metadata] = field(default_factory=list)
-    damage: str | None = None  # None: the scan reached the footer
+    damage: str | None = None  # None: the scan reached the end of the data section
+    skipped: list[str] = field(default_factory=list)  # damaged records read past
+    lost: int = 0  # messages the skipped chunks held (by their message indexes)
+    lost_unknown: bool = False  # a skipped chunk whose message count is unknown
+    unknown_channels: set[int] = field(default_factory=set)
+    seen: dict[tuple[int, int, bytes], int] = field(default_factory=dict)  # record → offset
+    require_crcs: bool = True  # an attachment CRC of 0 is damage (see checked_attachment)
 
 
 class _Damaged(Exception):
@@ -48,7 +71,7 @@ class _Damaged(Exception):
 
 
 def _read_record(fh: IO[bytes], offset: int) -> tuple[int, bytes] | None:
-    """(opcode, body) of the record at ``offset``; None at the footer."""
+    """(opcode, body) of the record at ``offset``; None at the end of the data section."""
     head = fh.read(9)
     if len(head) < 9:
         what = "ends" if not head else "is cut inside a record header"
@@ -58,62 +81,196 @@ def _read_record(fh: IO[bytes], offset: int) -> tuple[int, bytes] | None:
     if length > MAX_RECORD_BYTES:
         msg = f"record at byte {offset} claims {length} bytes"
         raise _Damaged(msg)
+    if not Opcode.HEADER <= opcode <= MAX_OPCODE:
+        msg = f"no MCAP record starts at byte {offset} (opcode {opcode:#04x})"
+        raise _Damaged(msg)
     body = fh.read(length)
     if len(body) < length:
         msg = f"file is cut inside a record (opcode {opcode:#04x}) starting at byte {offset}"
         raise _Damaged(msg)
-    return None if opcode == Opcode.FOOTER else (opcode, body)
+    # the summary section follows DataEnd; its records repeat what the data section holds
+    return None if opcode in (Opcode.DATA_END, Opcode.FOOTER) else (opcode, body)
 
 
-def _parse(opcode: int, body: bytes) -> list[object]:
+# The highest opcode of the MCAP records (DataEnd); a higher one is taken for damage.
+MAX_OPCODE = 0x0F
+# A compressed chunk's compression field: its length and name, 37 bytes into the record.
+_CHUNK_MARKERS = (b"\x03\x00\x00\x00lz4", b"\x04\x00\x00\x00zstd")
+_MARKER_AT = 9 + 28
+
+
+def next_chunk(fh: IO[bytes], start: int) -> int | None:
+    """The offset of the first intact compressed chunk at or after byte ``start`` (its
+    compression field found, then the whole record parsed and CRC-checked), or None.
+
+    How a front-to-back reading resumes after damage that hides where the next record
+    starts (an inserted or deleted span): the chunks after it are whole. Chunks without
+    compression have no field distinctive enough to search for; none are found."""
+    try:
+        view = mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ)
+    except (OSError, ValueError, io.UnsupportedOperation):
+        return None
+    with view:
+        at = {m: view.find(m, start + _MARKER_AT) for m in _CHUNK_MARKERS}
+        while any(p >= 0 for p in at.values()):
+            marker = min((p, m) for m, p in at.items() if p >= 0)[1]
+            where = at[marker] - _MARKER_AT
+            at[marker] = view.find(marker, at[marker] + 1)
+            opcode, length = struct.unpack_from("<BQ", view, where)
+            if opcode != Opcode.CHUNK or where + 9 + length > len(view):
+                continue
+            try:
+                chunk_records(view[where + 9 : where + 9 + length])
+            except Exception:  # not a chunk, or a damaged one: search on
+                continue
+            return where
+    return None
+
+
+_ATTACHMENT_CRC = struct.Struct("<I")
+
+
+def checked_attachment(body: bytes, *, require_crc: bool = True) -> Attachment:
+    """An attachment record, after checking its CRC. A CRC of 0 means "not computed"; with
+    ``require_crc`` it is damage: a writer that computes CRCs (mcap's, flylog's) always
+    does, and a record read where another one's bytes now lie can end in four zeroes."""
+    record = Attachment.read(ReadDataStream(io.BytesIO(body)))
+    if len(body) < _ATTACHMENT_CRC.size:
+        msg = "attachment record shorter than its CRC"
+        raise ValueError(msg)
+    (crc,) = _ATTACHMENT_CRC.unpack_from(body, len(body) - _ATTACHMENT_CRC.size)
+    if crc == 0 and require_crc:
+        msg = f"attachment '{record.name}' has no CRC, where its log's writer computes them"
+        raise ValueError(msg)
+    if crc != 0 and zlib.crc32(memoryview(body)[: -_ATTACHMENT_CRC.size]) != crc:
+        msg = f"attachment '{record.name}' CRC mismatch"
+        raise ValueError(msg)
+    return record
+
+
+def _parse(opcode: int, body: bytes, require_crcs: bool) -> list[object]:
     """The records a record body holds (a chunk holds several)."""
     if opcode == Opcode.CHUNK:
         return [record for _, record in chunk_records(body)]
     stream = ReadDataStream(io.BytesIO(body))
     if opcode == Opcode.MESSAGE:
         return [Message.read(stream, len(body))]
+    if opcode == Opcode.ATTACHMENT:
+        return [checked_attachment(body, require_crc=require_crcs)]
     readers: dict[int, Callable[[ReadDataStream], object]] = {
         Opcode.SCHEMA: Schema.read,
         Opcode.CHANNEL: Channel.read,
-        Opcode.ATTACHMENT: Attachment.read,
         Opcode.METADATA: Metadata.read,
     }
     read = readers.get(opcode)
     return [] if read is None else [read(stream)]  # indexes etc. are not needed here
 
 
+_MESSAGE_INDEX = struct.Struct("<HI")  # channel id, length of its entries
+
+
+def _indexed_count(body: bytes) -> int | None:
+    """How many messages a message index record lists (None if it is malformed)."""
+    if len(body) < _MESSAGE_INDEX.size:
+        return None
+    _, length = _MESSAGE_INDEX.unpack_from(body)
+    if length % 16 or _MESSAGE_INDEX.size + length != len(body):
+        return None
+    return length // 16
+
+
+_NAMES: dict[int, str] = {
+    Opcode.CHUNK: "chunk",
+    Opcode.MESSAGE: "message",
+    Opcode.SCHEMA: "schema",
+    Opcode.CHANNEL: "channel",
+    Opcode.ATTACHMENT: "attachment",
+    Opcode.METADATA: "metadata",
+}
+
+
 def scan_messages(
     fh: IO[bytes], state: ScanState, *, topics: frozenset[str] | None = None
 ) -> Iterator[RawMessage]:
-    """Messages in file order, read up to the footer or the first damage (then recorded in
-    ``state.damage``). ``fh`` is positioned at the start of the file."""
+    """Messages in file order, read up to the end of the data section or the first damage
+    that hides what follows (then recorded in ``state.damage``). A whole record that fails
+    its checks (a chunk's or attachment's CRC, bad compressed data, inconsistent lengths)
+    is skipped and named in ``state.skipped``; the messages a skipped chunk held (as its
+    message indexes list them) are counted in ``state.lost``. ``fh`` is positioned at the
+    start of the file."""
     if fh.read(8) != MAGIC:
         state.damage = "the file does not start with the MCAP magic"
         return
     offset = 8
+    counting = False  # the message indexes that follow a skipped chunk are being counted
     while True:
         try:
             found = _read_record(fh, offset)
-            if found is None:
-                return
-            opcode, body = found
-            # Any failure to parse a complete record (bad CRC, bad compressed data,
-            # inconsistent lengths) is damage; what came before it stays readable.
-            try:
-                records = _parse(opcode, body)
-            except Exception as exc:
-                msg = f"record at byte {offset} is corrupt ({type(exc).__name__}: {exc})"
-                raise _Damaged(msg) from None
         except _Damaged as exc:
-            state.damage = str(exc)
+            resume = next_chunk(fh, offset + 1)
+            if resume is None:
+                state.damage = str(exc)
+                return
+            state.skipped.append(f"bytes {offset} to {resume} ({exc})")
+            state.lost_unknown = True
+            counting = False
+            offset = resume
+            fh.seek(offset)
+            continue
+        if found is None:
             return
+        opcode, body = found
+        at = offset
         offset += 9 + len(body)
+        if opcode == Opcode.MESSAGE_INDEX:
+            if counting:
+                count = _indexed_count(body)
+                if count is None:
+                    state.lost_unknown = True
+                else:
+                    state.lost += count
+            continue
+        if counting and opcode != Opcode.MESSAGE_INDEX:
+            counting = False
+        if opcode in (Opcode.CHUNK, Opcode.ATTACHMENT):
+            # a record repeated byte for byte (a writer's retry, a bad copy) is read once;
+            # a chunk's header holds its times, sizes and CRC, an attachment ends in its CRC
+            key = (opcode, len(body), body[:36] if opcode == Opcode.CHUNK else body[-36:])
+            first = state.seen.setdefault(key, at)
+            if first != at:
+                what = _NAMES[opcode]
+                state.skipped.append(f"the {what} at byte {at} (a copy of the one at byte {first})")
+                continue
+        try:
+            records = _parse(opcode, body, state.require_crcs)
+        except Exception as exc:
+            what = _NAMES.get(opcode, f"record (opcode {opcode:#04x})")
+            state.skipped.append(f"the {what} at byte {at} ({type(exc).__name__}: {exc})")
+            if opcode == Opcode.CHUNK:
+                counting = True
+            elif opcode == Opcode.MESSAGE:
+                state.lost += 1
+            continue
         for record in records:
             if isinstance(record, Message):
                 channel = state.channels.get(record.channel_id)
-                if channel is None:
-                    state.damage = f"message for unknown channel {record.channel_id}"
-                    return
+                lacking = (
+                    "channel"
+                    if channel is None
+                    else "schema"
+                    if channel.schema_id and channel.schema_id not in state.schemas
+                    else None
+                )
+                if lacking is not None:  # that record was in a skipped chunk
+                    if record.channel_id not in state.unknown_channels:
+                        state.unknown_channels.add(record.channel_id)
+                        state.skipped.append(
+                            f"the messages of channel {record.channel_id} from byte {at} on "
+                            f"(its {lacking} record is lost)"
+                        )
+                    state.lost += 1
+                    continue
+                assert channel is not None
                 if topics is None or channel.topic in topics:
                     yield RawMessage(state.schemas.get(channel.schema_id), channel, record)
             elif isinstance(record, Schema):

@@ -30,6 +30,7 @@ import numpy as np
 
 from flylog.config import from_mapping, param, problems_message, read_toml, to_mapping
 from flylog.errors import ConfigError
+from flylog.metrics.provenance import PROVENANCE_COLUMNS, warn_if_mixed
 from flylog.metrics.tables import SUMMARY_COLUMNS, read_summary
 
 
@@ -144,7 +145,7 @@ def metric_names(
 ) -> list[str]:
     """Numeric summary columns in the schema's order, then any other judged or numeric
     column the summaries hold."""
-    names = [c.name for c in SUMMARY_COLUMNS if c.name not in ("run", "log")]
+    names = [c.name for c in SUMMARY_COLUMNS if c.name not in ("run", "log", *PROVENANCE_COLUMNS)]
     seen = set(names)
     for row in rows:
         for k, v in row.items():
@@ -184,10 +185,12 @@ def compare_files(
     candidate: Sequence[Path],
     tolerances: Mapping[str, Tolerance] = DEFAULT_TOLERANCES,
 ) -> Comparison:
-    """Compare metrics outputs (``-o`` paths or their ``.summary.parquet``)."""
-    return compare_summaries(
-        [read_summary(p) for p in base], [read_summary(p) for p in candidate], tolerances
-    )
+    """Compare metrics outputs (``-o`` paths or their ``.summary.parquet``); a
+    ProvenanceWarning if the sides were scored against different logs or configurations."""
+    base_rows = [read_summary(p) for p in base]
+    candidate_rows = [read_summary(p) for p in candidate]
+    warn_if_mixed(base_rows, candidate_rows)
+    return compare_summaries(base_rows, candidate_rows, tolerances)
 
 
 # The metrics a tolerance may be given for: the summary's numeric columns.

@@ -13,6 +13,7 @@ within ``goal_tolerance`` of the goal at some time.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import json
 import math
@@ -35,6 +36,7 @@ from flylog.metrics import tables
 from flylog.metrics.config import MetricsConfig
 from flylog.metrics.flies import f_score, ratio, score_snapshots
 from flylog.metrics.obstacles import detect_obstacles
+from flylog.metrics.provenance import check_run_log, config_digest, run_config_digest
 from flylog.metrics.trajectory import (
     PoseInterpolator,
     associate,
@@ -186,6 +188,13 @@ def score_run(
     file). ``on_progress(done, total)`` reports progress in seconds of log time."""
     wall0 = time.perf_counter()
     reader = open_log(run)
+    replayed = reader.metadata().get(contract.REPLAY_METADATA, {})
+    fingerprint = check_run_log(run, log, replayed)  # before any work: the right log?
+    provenance = {
+        "log_fingerprint": fingerprint,
+        "run_config": run_config_digest(replayed),
+        "metrics_config": config_digest(to_mapping(config)),
+    }
     present = reader.topics()
     topics = [t for t in (contract.FLIES, contract.PLANNER_COMMAND) if t in present]
     # Reading starts now, in its thread (the first message read here starts it).
@@ -194,7 +203,8 @@ def score_run(
     try:
         ahead = [] if first is None else [first]
         stream = itertools.chain(ahead, () if messages is None else messages)
-        return _scored(run, log, config, reader, stream, on_progress, wall0)
+        result = _scored(run, log, config, reader, stream, on_progress, wall0)
+        return dataclasses.replace(result, summary={**result.summary, **provenance})
     finally:
         if messages is not None:
             messages.close()  # stops the reading thread if scoring failed

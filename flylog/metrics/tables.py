@@ -52,6 +52,9 @@ SNAPSHOT_COLUMNS = (
 SUMMARY_COLUMNS = (
     Column("run", _S, "", "the run file scored"),
     Column("log", _S, "", "the sensor log that gave the ground truth"),
+    Column("log_fingerprint", _S, "", "content fingerprint of that log (flylog.io.fingerprint)"),
+    Column("run_config", _S, "", "digest of the replay configuration the run records"),
+    Column("metrics_config", _S, "", "digest of the metrics configuration scored with"),
     Column("snapshots", _I, "", "fly snapshots scored"),
     Column("duration_s", _F, "s", "time span of the true trajectory"),
     Column("precision", _F, "", "pooled over snapshots: sum on_surface / sum in_view"),

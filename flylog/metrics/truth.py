@@ -79,7 +79,7 @@ def read_rig(reader: LogReader, scene: Scene) -> StereoRig:
         return from_mapping(StereoRig, data, source=source)
     rig = scene.spec.camera
     if contract.LEFT_CALIBRATION in reader.topics():
-        first = next(iter(reader.messages([contract.LEFT_CALIBRATION]))).value
+        first = reader.first(contract.LEFT_CALIBRATION).value
         cx, cy = float(first.K[0, 2]), float(first.K[1, 2])
         centre = ((first.width - 1) / 2.0, (first.height - 1) / 2.0)
         return dataclasses.replace(

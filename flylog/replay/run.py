@@ -13,6 +13,7 @@ from flylog.budget import DEFAULT_LIMITS, Limits, check_sampling_rates, replay_e
 from flylog.config import to_mapping
 from flylog.io import contract
 from flylog.io.collisions import Role, check_outputs
+from flylog.io.fingerprint import log_fingerprint
 from flylog.io.tables import Column, TableWriter
 from flylog.io.writer import Compression, LogWriter
 from flylog.replay.clock import ClockConfig, VirtualClock
@@ -124,6 +125,7 @@ def replay(
     )
     source = open_source(Path(log), goal=goal, bag=bag)
     inputs = source.inputs
+    fingerprint = log_fingerprint(log)
     duration = (inputs.end_ns - inputs.start_ns) / 1e9
     check_sampling_rates(config, inputs.rig.frame_rate, source=f"the log {log}")
     replay_estimate(config, inputs.rig, duration).check(limits)
@@ -162,6 +164,7 @@ def replay(
                 {
                     "config": json.dumps(to_mapping(config)),
                     "log": str(log),
+                    "log_fingerprint": fingerprint,
                     "goal": json.dumps(list(inputs.goal) if source.planner else None),
                     "generations": str(stats.generations),
                     "evaluations": str(stats.evaluations),

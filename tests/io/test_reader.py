@@ -14,6 +14,7 @@ import pytest
 
 from flylog.errors import LogError
 from flylog.io import (
+    DamagedLogWarning,
     LogMessage,
     TruncatedLogWarning,
     UnpairedImagesWarning,
@@ -170,29 +171,59 @@ def test_recovered_count_grows_with_the_cut(chunked, tmp_path):
     assert counts == sorted(counts) and counts[-1] > counts[0]
 
 
-def test_corrupt_chunk_stops_the_read_there(chunked, tmp_path):
-    sample, full = chunked
-    data = bytearray(sample.path.read_bytes())
-    summary_start = int.from_bytes(data[-28:-20], "little")
-    middle = summary_start // 2
-    data[middle : middle + 64] = bytes(64)  # zeroes inside some chunk
-    bad = tmp_path / "bad.mcap"
-    bad.write_bytes(bytes(data[:summary_start]))  # no summary: read front to back
-    got, caught = read_all(bad)
-    assert 0 < len(got) < len(full)
-    assert [w.category for w in caught] == [TruncatedLogWarning]
-
-
-def test_corrupt_chunk_of_a_finished_log_is_a_log_error(chunked, tmp_path):
-    sample, _ = chunked
+def zeroed_middle_chunk(sample: Sample) -> tuple[bytearray, int]:
+    """The log's bytes with 64 zeroes inside a chunk in the middle, and its summary start."""
     data = bytearray(sample.path.read_bytes())
     summary_start = int.from_bytes(data[-28:-20], "little")
     middle = summary_start // 2
     data[middle : middle + 64] = bytes(64)
+    return data, summary_start
+
+
+def is_subsequence(part: list[LogMessage], whole: list[LogMessage]) -> bool:
+    rest = iter(whole)
+    return all(
+        any(m.log_time_ns == w.log_time_ns and m.topic == w.topic for w in rest) for m in part
+    )
+
+
+def test_corrupt_chunk_of_an_unfinished_log_is_skipped(chunked, tmp_path):
+    sample, full = chunked
+    data, summary_start = zeroed_middle_chunk(sample)
+    bad = tmp_path / "bad.mcap"
+    bad.write_bytes(bytes(data[:summary_start]))  # no summary: read front to back
+    got, caught = read_all(bad)
+    assert 0 < len(got) < len(full) and is_subsequence(got, full)
+    assert got[-1].log_time_ns == full[-1].log_time_ns  # the chunks after it are read
+    skipped = [w for w in caught if w.category is DamagedLogWarning]
+    assert len(skipped) == 1
+    assert f"{len(full) - len(got)} messages lost, {len(got)} read" in str(skipped[0].message)
+    assert "chunk CRC mismatch" in str(skipped[0].message)
+
+
+def test_corrupt_chunk_of_a_finished_log_is_skipped_and_counted(chunked, tmp_path):
+    sample, full = chunked
+    data, _ = zeroed_middle_chunk(sample)
     bad = tmp_path / "bad.mcap"
     bad.write_bytes(bytes(data))
-    with pytest.raises(LogError, match=r"bad\.mcap: damaged log"):
-        list(open_log(bad).messages())
+    got, caught = read_all(bad)
+    assert 0 < len(got) < len(full) and is_subsequence(got, full)
+    assert got[-1].log_time_ns == full[-1].log_time_ns
+    (warning,) = caught
+    assert warning.category is DamagedLogWarning
+    text = str(warning.message)
+    assert "bad.mcap: skipped the chunk at byte" in text
+    assert f"read {len(got)} of the {len(full)} messages" in text
+    assert f"({len(full) - len(got)} lost)" in text
+
+
+def test_a_cut_inside_the_only_chunk_says_the_log_is_truncated(sample_log: Sample, tmp_path):
+    data = sample_log.path.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: len(data) // 2])  # sample_log has one chunk
+    log = open_log(cut)
+    with pytest.raises(LogError, match=r"cut\.mcap is truncated or damaged \(file is cut inside"):
+        require_topics(log, [contract.ODOM])
 
 
 KILLED_WRITER = textwrap.dedent(
@@ -275,18 +306,17 @@ def test_pairing_buffers_at_most_max_pending_images():
 
 
 def test_a_finished_log_parses_its_summary_once(sample_log: Sample, monkeypatch):
-    """Metadata, attachments and messages reuse the summary read at open (mcap would parse
-    every chunk and message index again for each query: ~20 ms on a 60 s run)."""
-    import mcap.reader
+    """Metadata, attachments and messages reuse the summary read and checked at open."""
+    from flylog.io import summary
 
     calls = []
-    parse = mcap.reader._read_summary_from_stream_reader
+    parse = summary._parsed
 
     def counted(*args, **kwargs):
         calls.append(1)
         return parse(*args, **kwargs)
 
-    monkeypatch.setattr(mcap.reader, "_read_summary_from_stream_reader", counted)
+    monkeypatch.setattr(summary, "_parsed", counted)
     log = open_log(sample_log.path)
     assert len(calls) == 1
     first = log.metadata()

@@ -16,6 +16,7 @@ from click.testing import CliRunner
 from flylog.cli.main import cli
 from flylog.config import from_mapping, replace_dotted
 from flylog.io import contract
+from flylog.io.fingerprint import log_fingerprint
 from flylog.io.reader import open_log
 from flylog.replay.config import ReplayConfig
 from flylog.replay.run import replay
@@ -73,6 +74,7 @@ def test_effective_config_is_stored_and_reproduces_the_run(corridor_run, tmp_pat
     meta = open_log(corridor_run.output).metadata()[contract.REPLAY_METADATA]
     stored = from_mapping(ReplayConfig, json.loads(meta["config"]), source="metadata")
     assert stored == SMALL
+    assert meta["log_fingerprint"] == log_fingerprint(CORRIDOR)  # metrics checks --log by it
     again = replay(CORRIDOR, tmp_path / "again.mcap", stored)
     assert content(again.output) == content(corridor_run.output)
     assert table_rows(again.table) == table_rows(corridor_run.table)

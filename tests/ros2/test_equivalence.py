@@ -96,18 +96,22 @@ def test_jpeg_export_scores_within_the_stated_tolerance(exported, tmp_path):
         cfg = replace_dotted(NO_SONAR, {"seed": seed})
         for name, source in (("log", CORRIDOR), ("jpeg", exported[ImageFormat.JPEG])):
             run = replay(source, tmp_path / f"{name}-{seed}.mcap", cfg)
-            scores[name].append(score_run(run.output, CORRIDOR, config).summary)
+            # each run against the truth of what it replayed (the export carries --truth)
+            scores[name].append(score_run(run.output, source, config).summary)
     for key in ("precision", "recall"):
         ours = np.mean([s[key] for s in scores["jpeg"]])
         theirs = np.mean([s[key] for s in scores["log"]])
         assert abs(ours - theirs) <= JPEG_SCORE_TOLERANCE, key
 
 
-def test_metrics_read_the_truth_of_an_export_as_of_the_log(exported, log_runs):
+def test_metrics_read_the_truth_of_an_export_as_of_the_log(exported, log_runs, tmp_path):
+    """The png export replays bit for bit like the log (sonar off): scored against the
+    export's truth, its run gets the log's run's scores against the log's."""
     config = MetricsConfig()
-    run = log_runs["off"].output
-    from_bag = score_run(run, exported[ImageFormat.PNG], config).summary
-    from_log = score_run(run, CORRIDOR, config).summary
+    bag = exported[ImageFormat.PNG]
+    bag_run = replay(bag, tmp_path / "bag-run.mcap", NO_SONAR).output
+    from_bag = score_run(bag_run, bag, config).summary
+    from_log = score_run(log_runs["off"].output, CORRIDOR, config).summary
     for key in ("precision", "recall", "path_length_m", "ate_m", "obstacles_detected"):
         assert from_bag[key] == from_log[key], key
 

@@ -1,0 +1,311 @@
+"""Fuzzing the reader: seeded mutants of a log (:mod:`tests.io.mutate`), each read whole by
+``flylog.io.open_log`` in a worker process with a time limit, and classified.
+
+Accepted outcomes:
+
+- ``identical``: read like the original, no warning;
+- ``warned``: read like the original, with a DamagedLogWarning naming what is damaged (a
+  summary, say, when the data section holds every message);
+- ``recovered``: a DamagedLogWarning (or TruncatedLogWarning) names what was skipped and the
+  messages lost, and what was read is the original's messages in order with some left out
+  (nothing changed, nothing invented);
+- ``error``: a flylog LogError.
+
+Failures: ``exception`` (any other exception), ``silent`` (a read that differs from the
+original with no warning), ``invented`` (a warned read holding a message the original lacks
+or a value it changed), ``hang`` (no answer within the limit). "Read whole" is the topics,
+time range, attachments and every decoded message; metadata records are read (to fail
+cleanly or not at all) but not compared: MCAP gives them no checksum.
+
+``python -m tests.io.fuzz LOG... --mutants N`` prints the counts per log and class and
+exits 1 on any failure (``make fuzz``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import hashlib
+import json
+import os
+import select
+import subprocess
+import sys
+import tempfile
+import time
+import warnings
+from collections import Counter
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .mutate import mutate
+
+ACCEPTED = ("identical", "warned", "recovered", "error")
+FAILURES = ("exception", "silent", "invented", "hang")
+TIME_LIMIT_S = 5.0
+
+
+def _digest(value: Any, h: Any) -> None:
+    if isinstance(value, np.ndarray):
+        h.update(f"{value.dtype}{value.shape}".encode())
+        h.update(np.ascontiguousarray(value).tobytes())
+    elif dataclasses.is_dataclass(value) and not isinstance(value, type):
+        for f in dataclasses.fields(value):
+            _digest(getattr(value, f.name), h)
+    elif isinstance(value, tuple | list):
+        h.update(f"[{len(value)}".encode())
+        for v in value:
+            _digest(v, h)
+    elif isinstance(value, dict):
+        for k in sorted(value, key=str):
+            h.update(str(k).encode())
+            _digest(value[k], h)
+    else:
+        h.update(repr(value).encode())
+
+
+def message_key(m: Any) -> tuple[str, int, str, str]:
+    h = hashlib.blake2b(digest_size=16)
+    _digest(m.value, h)
+    return (m.topic, m.log_time_ns, m.schema, h.hexdigest())
+
+
+@dataclasses.dataclass(frozen=True)
+class Reading:
+    """What reading a log whole gave."""
+
+    topics: tuple[tuple[str, str, int], ...]
+    times: tuple[int, int]
+    attachments: tuple[tuple[str, str, int, str], ...]
+    messages: tuple[tuple[str, int, str, str], ...]
+
+
+def read_whole(path: Path) -> tuple[Reading, list[str]]:
+    """The log read whole, and the damage warnings reading it gave."""
+    from flylog.io import DamagedLogWarning, open_log
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        log = open_log(path)
+        topics = tuple((t, i.schema, i.count) for t, i in log.topics().items())
+        times = (log.start_ns, log.end_ns)
+        attachments = tuple(
+            (a.name, a.media_type, a.log_time_ns, hashlib.sha256(a.data).hexdigest())
+            for a in log.attachments()
+        )
+        log.metadata()
+        messages = tuple(message_key(m) for m in log.messages())
+    damage = [str(w.message) for w in caught if issubclass(w.category, DamagedLogWarning)]
+    return Reading(topics, times, attachments, messages), damage
+
+
+def _is_subsequence(part: Iterable[Any], whole: Iterable[Any]) -> bool:
+    rest = iter(whole)
+    return all(any(p == w for w in rest) for p in part)
+
+
+def classify(original: Reading, path: Path) -> tuple[str, str]:
+    """The class of reading ``path`` (a mutant of the log ``original`` was read from) and a
+    detail: the warning, the error or the exception."""
+    from flylog.errors import LogError
+
+    try:
+        got, damage = read_whole(path)
+    except LogError as exc:
+        return "error", str(exc)
+    except Exception as exc:
+        return "exception", f"{type(exc).__name__}: {exc}"
+    if not damage:
+        return ("identical", "") if got == original else ("silent", _difference(original, got))
+    if got == original:
+        return "warned", damage[0]  # read whole, with a warning about what is damaged
+    if _is_subsequence(got.messages, original.messages) and _is_subsequence(
+        got.attachments, original.attachments
+    ):
+        kept = len(got.messages) / max(1, len(original.messages))
+        return "recovered", f"kept {kept:.4f} of the messages; {damage[0]}"
+    return "invented", f"{_difference(original, got)}; warned: {damage[0]}"
+
+
+def _difference(a: Reading, b: Reading) -> str:
+    for name in ("topics", "times", "attachments"):
+        if getattr(a, name) != getattr(b, name):
+            return f"{name}: {getattr(a, name)} became {getattr(b, name)}"
+    return f"messages: {len(a.messages)} became {len(b.messages)}"
+
+
+# ---- the worker: reads jobs (log path, seed) as JSON lines on stdin -----------------------
+
+
+def worker(scratch: Path) -> None:
+    originals: dict[str, tuple[bytes, Reading]] = {}
+    target = scratch / f"mutant-{os.getpid()}.mcap"
+    for line in sys.stdin:
+        job = json.loads(line)
+        log = job["log"]
+        if log not in originals:
+            originals[log] = (Path(log).read_bytes(), read_whole(Path(log))[0])
+        data, original = originals[log]
+        mutant, how = mutate(data, np.random.default_rng(job["seed"]))
+        target.write_bytes(mutant)
+        kind, detail = classify(original, target)
+        print(json.dumps({"seed": job["seed"], "class": kind, "how": how, "detail": detail}))
+        sys.stdout.flush()
+
+
+class _Worker:
+    def __init__(self, scratch: Path) -> None:
+        root = Path(__file__).resolve().parents[2]
+        self.process = subprocess.Popen(
+            [sys.executable, "-m", "tests.io.fuzz", "--worker", str(scratch)],
+            cwd=root,
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+        self.job: dict[str, Any] | None = None
+        self.started = 0.0
+
+    def give(self, job: dict[str, Any]) -> None:
+        assert self.process.stdin is not None
+        self.job, self.started = job, time.monotonic()
+        self.process.stdin.write(json.dumps(job) + "\n")
+        self.process.stdin.flush()
+
+    def stop(self) -> None:
+        self.process.kill()
+        self.process.wait()
+
+
+def run(
+    logs: list[Path], mutants: int, *, workers: int = 2, first_seed: int = 0
+) -> tuple[dict[str, Counter[str]], list[dict[str, Any]], dict[str, list[float]]]:
+    """Classify ``mutants`` seeded mutants of each log in ``workers`` processes; the counts
+    per log and class, the failing mutants (log, seed, class, damage, detail), and the
+    share of the messages each recovered read kept."""
+    jobs = [{"log": str(log), "seed": first_seed + k} for log in logs for k in range(mutants)][::-1]
+    counts: dict[str, Counter[str]] = {str(log): Counter() for log in logs}
+    kept: dict[str, list[float]] = {str(log): [] for log in logs}
+    failures: list[dict[str, Any]] = []
+    with tempfile.TemporaryDirectory(prefix="flylog-fuzz-") as scratch:
+        pool = [_Worker(Path(scratch)) for _ in range(max(1, workers))]
+        busy: dict[int, _Worker] = {}
+        try:
+            while jobs or busy:
+                for w in pool:
+                    if w.job is None and jobs:
+                        w.give(jobs.pop())
+                busy = {w.process.stdout.fileno(): w for w in pool if w.job is not None}  # type: ignore[union-attr]
+                if not busy:
+                    break
+                soonest = min(w.started for w in busy.values()) + TIME_LIMIT_S
+                ready, _, _ = select.select(
+                    list(busy), [], [], max(0.0, soonest - time.monotonic())
+                )
+                for fd in ready:
+                    w = busy[fd]
+                    assert w.process.stdout is not None and w.job is not None
+                    line = w.process.stdout.readline()
+                    result = (
+                        json.loads(line)
+                        if line
+                        else {"class": "exception", "how": "", "detail": "the worker died"}
+                    )
+                    counts[w.job["log"]][result["class"]] += 1
+                    if result["class"] == "recovered":
+                        kept[w.job["log"]].append(float(result["detail"].split()[1]))
+                    if result["class"] in FAILURES:
+                        failures.append({"log": w.job["log"], **w.job, **result})
+                    w.job = None
+                now = time.monotonic()
+                for i, w in enumerate(pool):
+                    if w.job is not None and now - w.started > TIME_LIMIT_S:
+                        counts[w.job["log"]]["hang"] += 1
+                        failures.append({**w.job, "class": "hang", "how": "", "detail": ""})
+                        w.stop()
+                        pool[i] = _Worker(Path(scratch))
+                    elif w.job is None and w.process.poll() is not None:
+                        pool[i] = _Worker(Path(scratch))
+        finally:
+            for w in pool:
+                w.stop()
+    return counts, failures, kept
+
+
+def rechunked(source: Path, target: Path, *, chunk_size: int, compression: str = "lz4") -> Path:
+    """``target``: ``source``'s records, byte for byte, in chunks of ``chunk_size`` bytes."""
+    from mcap.reader import make_reader
+    from mcap.writer import CompressionType, Writer
+
+    with source.open("rb") as src, target.open("wb") as fh:
+        reader = make_reader(src)
+        writer = Writer(
+            fh,
+            chunk_size=chunk_size,
+            compression=CompressionType[compression.upper()],
+            use_summary_offsets=False,
+        )
+        writer.start()
+        for m in reader.iter_metadata():
+            writer.add_metadata(m.name, m.metadata)
+        for a in reader.iter_attachments():
+            writer.add_attachment(a.create_time, a.log_time, a.name, a.media_type, a.data)
+        schemas: dict[int, int] = {}
+        channels: dict[int, int] = {}
+        for schema, channel, m in reader.iter_messages(log_time_order=False):
+            if channel.id not in channels:
+                if schema is not None and schema.id not in schemas:
+                    schemas[schema.id] = writer.register_schema(
+                        schema.name, schema.encoding, schema.data
+                    )
+                sid = 0 if schema is None else schemas[schema.id]
+                channels[channel.id] = writer.register_channel(
+                    channel.topic, channel.message_encoding, sid, channel.metadata
+                )
+            writer.add_message(channels[channel.id], m.log_time, m.data, m.publish_time, m.sequence)
+        writer.finish()
+    return target
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m tests.io.fuzz", description=__doc__)
+    parser.add_argument("logs", nargs="*", type=Path)
+    parser.add_argument("--mutants", type=int, default=5000, help="mutants per log")
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--seed", type=int, default=0, help="seed of the first mutant")
+    parser.add_argument(
+        "--lz4-copy",
+        type=int,
+        metavar="BYTES",
+        help="also fuzz a copy of each log in lz4 chunks of BYTES (many chunks)",
+    )
+    parser.add_argument("--worker", type=Path, help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    if args.worker is not None:
+        worker(args.worker)
+        return 0
+    t0 = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="flylog-fuzz-logs-") as copies:
+        logs = list(args.logs)
+        if args.lz4_copy:
+            for log in args.logs:
+                copy = Path(copies) / f"{log.stem}.lz4-{args.lz4_copy}.mcap"
+                logs.append(rechunked(log, copy, chunk_size=args.lz4_copy))
+        counts, failures, kept = run(logs, args.mutants, workers=args.workers, first_seed=args.seed)
+    for log, found in counts.items():
+        shown = ", ".join(f"{c} {found[c]}" for c in (*ACCEPTED, *FAILURES))
+        print(f"{log}: {sum(found.values())} mutants: {shown}")
+        if kept[log]:
+            print(f"  recovered reads kept {100 * np.mean(kept[log]):.1f} % of the messages")
+    for f in failures[:20]:
+        print(f"FAIL {f['class']}: {f['log']} seed {f['seed']} ({f['how']}): {f['detail']}")
+    total = sum(sum(c.values()) for c in counts.values())
+    print(f"{total} mutants in {time.perf_counter() - t0:.0f} s")
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
