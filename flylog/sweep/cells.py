@@ -157,6 +157,7 @@ def sweep_cells(spec: SweepSpec, out_dir: Path, simulated: list[SimulatedInput])
         config = spec.config(variant, point, seed)
         identity = {
             "input": label,
+            "kind": kind,
             "variant": variant.name,
             "point": to_mapping(point),
             "seed": seed,

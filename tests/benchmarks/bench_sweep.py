@@ -1,0 +1,78 @@
+"""``flylog sweep``: 8 cells on the process pool with 2 workers against the same 8 cells on
+1 worker, in the same run (the target: at least 1.7× on 2 cores), and Ray's overhead per
+cell against the pool's (a local Ray cluster of 2 CPUs, the same cells).
+
+Each cell replays the 2 s corridor fixture log through the asynchronous engine (1000 flies,
+7.4 M evaluations of virtual budget) and scores it: about 3 s of work on an idle core.
+Every sweep's wall time includes starting its workers and their warm-up (one tiny closed
+loop each), as a user's sweep does; ``--force`` semantics (a fresh directory each time).
+The load average (other processes on the machine) is given with the figures: the ratio
+needs both cores free to approach 2.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from pathlib import Path
+
+from flylog.sweep.executors import Backend
+from flylog.sweep.runner import SweepOptions, run_sweep
+
+LOG = Path(__file__).resolve().parents[2] / "fixtures" / "logs" / "corridor.mcap"
+CELLS = 8
+SPEC = f"""
+logs = ["{LOG}"]
+seeds = {CELLS}
+[grid]
+"engine.flies" = [1000]
+"""
+
+
+def _sweep(out_dir: Path, name: str, options: SweepOptions) -> float:
+    spec = out_dir / "bench_sweep.toml"
+    spec.write_text(SPEC, encoding="utf-8")
+    t0 = time.perf_counter()
+    result = run_sweep(spec, out_dir / f"bench_sweep_{name}", options)
+    wall = time.perf_counter() - t0
+    failed = [r["error"] for r in result.rows if r["status"] != "ok"]
+    if failed or result.ran != CELLS:
+        msg = f"bench sweep {name}: {len(failed)} failed, {result.ran} run: {failed[:1]}"
+        raise RuntimeError(msg)
+    return wall
+
+
+def _load() -> str:
+    one, five, _ = os.getloadavg()
+    return f"load average {one:.1f} (1 min), {five:.1f} (5 min) on {os.cpu_count()} cores"
+
+
+def run(out_dir: Path) -> list[dict]:
+    load_before = _load()
+    serial = _sweep(out_dir, "one_worker", SweepOptions(workers=1, force=True))
+    pool = _sweep(out_dir, "pool", SweepOptions(workers=2, force=True))
+    ray = _sweep(out_dir, "ray", SweepOptions(Backend.RAY, workers=2, force=True))
+    note = f"before: {load_before}; after: {_load()}"
+    return [
+        {"name": "one worker, 8 cells", "value": serial, "unit": "s", "note": note},
+        {
+            "name": "process pool of 2, 8 cells",
+            "value": pool,
+            "unit": "s",
+            "ratio": serial / pool,
+            "reference": "one worker (speed-up)",
+        },
+        {
+            "name": "Ray (local, 2 CPUs), 8 cells",
+            "value": ray,
+            "unit": "s",
+            "ratio": ray / pool,
+            "reference": "process pool of 2",
+        },
+        {
+            "name": "Ray's overhead per cell over the pool's",
+            "value": (ray - pool) / CELLS,
+            "unit": "s",
+            "note": "cluster start included, spread over the cells",
+        },
+    ]
