@@ -21,6 +21,7 @@ _COMMANDS = {
     "export": ("export", "export"),
     "experiment": ("experiment", "experiment"),
     "sweep": ("sweep", "sweep"),
+    "report": ("report", "report"),
 }
 
 
