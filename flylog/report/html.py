@@ -70,19 +70,17 @@ class Page:
         text_columns: int = 1,
         row_classes: Sequence[str] | None = None,
     ) -> None:
-        """A table; the first ``text_columns`` columns are left-aligned."""
+        """A table; the first ``text_columns`` columns and text values are left-aligned,
+        numbers right-aligned."""
 
-        def cls(i: int) -> str:
-            return ' class="text"' if i < text_columns else ""
+        def cls(i: int, value: Any = None) -> str:
+            return ' class="text"' if i < text_columns or isinstance(value, str) else ""
 
         head = "".join(f"<th{cls(i)}>{html.escape(h)}</th>" for i, h in enumerate(header))
         body = []
         for k, row in enumerate(rows):
             klass = f' class="{row_classes[k]}"' if row_classes and row_classes[k] else ""
-            tds = "".join(
-                f"<td{cls(i)}>{html.escape(cell_text(v), quote=False)}</td>"
-                for i, v in enumerate(row)
-            )
+            tds = "".join(f"<td{cls(i, v)}>{_text(v)}</td>" for i, v in enumerate(row))
             body.append(f"<tr{klass}>{tds}</tr>")
         rows_html = "".join(body)
         self.parts.append(

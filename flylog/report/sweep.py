@@ -4,6 +4,7 @@ standard deviation as error bars, the other grid keys pooled), then the results 
 
 from __future__ import annotations
 
+import math
 import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -15,6 +16,8 @@ from flylog.report.html import Page, write_page
 
 _TABLE_METRICS = ("precision", "recall", "f_score", "detection_latency_mean_s",
                   "goal_reached", "min_clearance_m", "ate_m", "cell_wall_s")  # fmt: skip
+
+PANELS_PER_ROW = 4
 
 
 def _ordered(values: Sequence[Any]) -> list[Any]:
@@ -49,8 +52,12 @@ def _plot(
     from flylog.experiments.plots import COLOURS, _pyplot, _save
 
     plt = _pyplot()
-    fig, axes = plt.subplots(1, len(metrics), figsize=(3.6 * len(metrics), 3.0), squeeze=False)
-    for ax, (metric, label) in zip(axes[0], metrics, strict=True):
+    columns = min(PANELS_PER_ROW, len(metrics))
+    rows_n = math.ceil(len(metrics) / columns)
+    fig, axes = plt.subplots(rows_n, columns, figsize=(3.6 * columns, 3.0 * rows_n), squeeze=False)
+    for ax in axes.ravel()[len(metrics) :]:
+        ax.axis("off")
+    for ax, (metric, label) in zip(axes.ravel(), metrics, strict=False):
         for colour, (variant, (xs, mean, sd)) in zip(
             COLOURS * 4, metric_lines(rows, key, metric).items(), strict=False
         ):
