@@ -11,7 +11,7 @@ from typing import Any
 
 import click
 
-from flylog.cli.common import reports_errors, stderr, stdout
+from flylog.cli.common import EXIT_INTERRUPTED, reports_errors, stderr, stdout
 
 EXIT_FAILED_CELLS = 1
 
@@ -94,7 +94,9 @@ def _pm(mean: float, sd: float, n: int) -> str:
     help="With --backend ray: the Ray cluster to join (e.g. ray://head:10001). "
     "[default: $RAY_ADDRESS, else a new local cluster]",
 )
-@click.option("--force", is_flag=True, help="Run every cell (and simulate every input) again.")
+@click.option(
+    "--force", is_flag=True, help="Run every cell (and simulate every input) again. [default: off]"
+)
 @reports_errors
 def sweep(
     spec: Path,
@@ -114,8 +116,16 @@ def sweep(
     from flylog.sweep.summary import MAIN_METRICS, summarize
 
     options = SweepOptions(Backend(backend), workers=workers, address=address, force=force)
-    with _cells_bar() as update:
-        result = run_sweep(spec, output, options, on_progress=update)
+    try:
+        with _cells_bar() as update:
+            result = run_sweep(spec, output, options, on_progress=update)
+    except KeyboardInterrupt:
+        stderr.print(
+            f"[red]interrupted[/]: the cells finished so far are kept under {output}/runs "
+            "(the same command resumes the sweep); results.parquet was not written",
+            soft_wrap=True,
+        )
+        sys.exit(EXIT_INTERRUPTED)
     keys = result.spec.grid_keys
     table = Table(title=f"sweep {spec.name}: mean ± sd per grid point", title_justify="left")
     for name in ("variant", *keys, "cells ok", "failed"):
