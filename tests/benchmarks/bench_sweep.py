@@ -7,13 +7,17 @@ Each cell replays the 2 s corridor fixture log through the asynchronous engine (
 Every sweep's wall time includes starting its workers and their warm-up (one tiny closed
 loop each), as a user's sweep does; every cell runs each time (``--force``). The one-worker
 and pool sweeps run twice, interleaved in both orders, and the best of each is kept.
-The load average (other processes on the machine) is given with the figures: the ratio
-needs both cores free to approach 2.
+The load average (other processes on the machine) is given with the figures, and the cores
+each sweep kept busy (its workers' CPU time over its wall time): a cell's replay runs the
+engine, the planner and the log's reading in threads of their own, so one worker already
+uses more than one core at times, and the pool's speed-up is bounded by 2 / that.
 """
 
 from __future__ import annotations
 
+import math
 import os
+import resource
 import time
 from pathlib import Path
 
@@ -30,17 +34,26 @@ seeds = {CELLS}
 """
 
 
-def _sweep(out_dir: Path, name: str, options: SweepOptions) -> float:
+def _children_cpu() -> float:
+    """CPU seconds of this process's ended children (the pool's workers, once shut down)."""
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def _sweep(out_dir: Path, name: str, options: SweepOptions) -> tuple[float, float]:
+    """(wall time, cores kept busy: the workers' CPU time / wall time; NaN for Ray, whose
+    workers are not this process's children)."""
     spec = out_dir / "bench_sweep.toml"
     spec.write_text(SPEC, encoding="utf-8")
-    t0 = time.perf_counter()
+    cpu0, t0 = _children_cpu(), time.perf_counter()
     result = run_sweep(spec, out_dir / f"bench_sweep_{name}", options)
     wall = time.perf_counter() - t0
+    cores = (_children_cpu() - cpu0) / wall if options.backend is Backend.PROCESSES else math.nan
     failed = [r["error"] for r in result.rows if r["status"] != "ok"]
     if failed or result.ran != CELLS:
         msg = f"bench sweep {name}: {len(failed)} failed, {result.ran} run: {failed[:1]}"
         raise RuntimeError(msg)
-    return wall
+    return wall, cores
 
 
 def _load() -> str:
@@ -53,17 +66,23 @@ def run(out_dir: Path) -> list[dict]:
     one, two = SweepOptions(workers=1, force=True), SweepOptions(workers=2, force=True)
     # interleaved, in both orders (one worker first, then the pool first), best of each: a
     # change of the machine's load during the run weighs on both alike
-    times: dict[str, list[float]] = {"one_worker": [], "pool": []}
+    times: dict[str, list[tuple[float, float]]] = {"one_worker": [], "pool": []}
     for order in (("one_worker", "pool"), ("pool", "one_worker")):
         for name in order:
             times[name].append(_sweep(out_dir, name, one if name == "one_worker" else two))
-    serial, pool = min(times["one_worker"]), min(times["pool"])
-    ray = _sweep(out_dir, "ray", SweepOptions(Backend.RAY, workers=2, force=True))
+    (serial, serial_cores), (pool, pool_cores) = min(times["one_worker"]), min(times["pool"])
+    ray, _ = _sweep(out_dir, "ray", SweepOptions(Backend.RAY, workers=2, force=True))
     note = (
         f"best of {len(times['pool'])} each, interleaved; before: {load_before}; after: {_load()}"
     )
     return [
         {"name": "one worker, 8 cells", "value": serial, "unit": "s", "note": note},
+        {
+            "name": "cores kept busy by one worker (its threads: engine, planner, reading)",
+            "value": serial_cores,
+            "unit": "cores",
+        },
+        {"name": "cores kept busy by the pool of 2", "value": pool_cores, "unit": "cores"},
         {
             "name": "process pool of 2, 8 cells",
             "value": pool,
