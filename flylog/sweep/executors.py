@@ -2,7 +2,9 @@
 cluster. Both take a top-level function and its arguments (picklable), run each call in a
 worker process that has run :func:`flylog.sweep.warm.warm_up` once, and yield
 ``(index, result)`` as calls finish, in any order; ``running`` is how many calls are being
-worked on at the moment.
+worked on at the moment. A call whose worker process died (killed, out of memory, a crash
+in compiled code) gives ``lost(index, message)`` when the caller passes ``lost``; without
+it, a WorkerLost error.
 
 Inputs and outputs travel by path: on a cluster, every node must see the sweep's inputs
 and its output directory at the same paths (shared storage, e.g. NFS).
@@ -15,7 +17,7 @@ import os
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any, Protocol, TypeVar
 
-from flylog.errors import ConfigError
+from flylog.errors import ConfigError, FlylogError
 from flylog.sweep.warm import warm_up
 
 A = TypeVar("A")
@@ -37,6 +39,19 @@ def default_workers() -> int:
         return os.cpu_count() or 1
 
 
+class WorkerLost(FlylogError):
+    """A worker process ended before its call returned."""
+
+
+Lost = Callable[[int, str], R]
+
+
+def _lost(lost: Lost[R] | None, index: int, message: str) -> R:
+    if lost is None:
+        raise WorkerLost(message)
+    return lost(index, message)
+
+
 class Executor(Protocol):
     workers: int
 
@@ -44,7 +59,7 @@ class Executor(Protocol):
     def running(self) -> int: ...
 
     def map_unordered(
-        self, fn: Callable[[A], R], items: Sequence[A]
+        self, fn: Callable[[A], R], items: Sequence[A], lost: Lost[R] | None = None
     ) -> Iterator[tuple[int, R]]: ...
 
     def close(self) -> None: ...
@@ -55,40 +70,68 @@ def _warmed_call(fn: Callable[[A], R], item: A, numba_threads: int) -> R:
     return fn(item)
 
 
+def _plain_call(fn: Callable[[A], R], item: A, numba_threads: int) -> R:
+    return fn(item)
+
+
 class ProcessPool:
     """``workers`` processes (spawned: fresh interpreters, as Ray's workers are), each with
-    ``numba_threads`` numba threads (1 by default: the workers already fill the cores)."""
+    ``numba_threads`` numba threads (1 by default: the workers already fill the cores);
+    ``warm``: each runs :func:`~flylog.sweep.warm.warm_up` first."""
 
-    def __init__(self, workers: int, *, numba_threads: int = 1) -> None:
+    def __init__(self, workers: int, *, numba_threads: int = 1, warm: bool = True) -> None:
+        self.workers = workers
+        self._threads = numba_threads
+        self._warm = warm
+        self._pending = 0
+        self._pool = self._new_pool()
+
+    def _new_pool(self) -> Any:
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
 
-        self.workers = workers
-        self._threads = numba_threads
-        self._pending = 0
-        self._pool = ProcessPoolExecutor(
-            max_workers=workers,
-            mp_context=multiprocessing.get_context("spawn"),
+        context = multiprocessing.get_context("spawn")
+        if not self._warm:
+            return ProcessPoolExecutor(max_workers=self.workers, mp_context=context)
+        return ProcessPoolExecutor(
+            max_workers=self.workers,
+            mp_context=context,
             initializer=warm_up,
-            initargs=(numba_threads,),
+            initargs=(self._threads,),
         )
+
+    def _submit(self, fn: Callable[[A], R], item: A) -> Any:
+        from concurrent.futures.process import BrokenProcessPool
+
+        call = _warmed_call if self._warm else _plain_call
+        try:
+            return self._pool.submit(call, fn, item, self._threads)
+        except BrokenProcessPool:  # a worker died in an earlier map: start afresh
+            self._pool.shutdown(wait=True)
+            self._pool = self._new_pool()
+            return self._pool.submit(call, fn, item, self._threads)
 
     @property
     def running(self) -> int:
         return min(self.workers, self._pending)
 
-    def map_unordered(self, fn: Callable[[A], R], items: Sequence[A]) -> Iterator[tuple[int, R]]:
+    def map_unordered(
+        self, fn: Callable[[A], R], items: Sequence[A], lost: Lost[R] | None = None
+    ) -> Iterator[tuple[int, R]]:
         from concurrent.futures import as_completed
+        from concurrent.futures.process import BrokenProcessPool
 
-        futures = {
-            self._pool.submit(_warmed_call, fn, item, self._threads): i
-            for i, item in enumerate(items)
-        }
+        futures = {self._submit(fn, item): i for i, item in enumerate(items)}
         self._pending = len(futures)
         try:
             for future in as_completed(futures):
                 self._pending -= 1
-                yield futures[future], future.result()
+                i = futures[future]
+                try:
+                    result = future.result()
+                except BrokenProcessPool as exc:  # every call not finished then fails so
+                    result = _lost(lost, i, f"a worker process ended abruptly ({exc})")
+                yield i, result
         finally:
             for future in futures:
                 future.cancel()
@@ -129,8 +172,12 @@ class RayCluster:
     def running(self) -> int:
         return min(self.workers, self._pending)
 
-    def map_unordered(self, fn: Callable[[A], R], items: Sequence[A]) -> Iterator[tuple[int, R]]:
+    def map_unordered(
+        self, fn: Callable[[A], R], items: Sequence[A], lost: Lost[R] | None = None
+    ) -> Iterator[tuple[int, R]]:
         ray = self._ray
+        from ray.exceptions import RayError
+
         refs = {self._remote.remote(fn, item, 1): i for i, item in enumerate(items)}
         pending = list(refs)
         self._pending = len(pending)
@@ -139,7 +186,13 @@ class RayCluster:
                 done, pending = ray.wait(pending, num_returns=1)
                 self._pending = len(pending)
                 for ref in done:
-                    yield refs[ref], ray.get(ref)
+                    try:
+                        result = ray.get(ref)
+                    except RayError as exc:  # its worker or node died, or it was cancelled
+                        first = str(exc).strip().splitlines()[:1]
+                        message = f"Ray lost the task: {type(exc).__name__}: {''.join(first)}"
+                        result = _lost(lost, refs[ref], message)
+                    yield refs[ref], result
         finally:
             for ref in pending:
                 ray.cancel(ref)

@@ -104,11 +104,16 @@ def _simulate_inputs(items: list[SimulatedInput], run: _Run, force: bool) -> dic
             input_record(s.task).unlink(missing_ok=True)
     run.report("inputs", 0, 0, len(todo))
     tasks = [s.task for s in todo]
-    for done, (i, error) in enumerate(run.get().map_unordered(simulate_input, tasks), start=1):
+    results = run.get().map_unordered(simulate_input, tasks, lost=lambda i, message: message)
+    for done, (i, error) in enumerate(results, start=1):
         if error is not None:
             errors[todo[i].label] = error
         run.report("inputs", done, len(errors), len(todo))
     return errors
+
+
+def _lost_cell(index: int, message: str) -> dict[str, Any]:
+    return {"status": STATUS_FAILED, "error": message}
 
 
 def run_sweep(
@@ -150,7 +155,8 @@ def run_sweep(
         failed = sum(r["status"] != STATUS_OK for r in rows.values())
         run.report("cells", len(rows), failed, len(cells))
         if todo:
-            for i, outcome in run.get().map_unordered(run_cell, todo):
+            outcomes = run.get().map_unordered(run_cell, todo, lost=_lost_cell)
+            for i, outcome in outcomes:
                 cell = todo[i]
                 rows[cell.index] = cell_row(cell, outcome, out_dir)
                 failed += outcome["status"] != STATUS_OK
