@@ -21,6 +21,15 @@ from flylog.cli.common import reports_errors, stdout
     "for a closed-loop log]",
 )
 @click.option(
+    "--metrics",
+    "metrics",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="For a run: its `flylog metrics -o` output (NAME.parquet, with NAME.summary.parquet "
+    "beside it), shown as it is. [default: the run is scored now, with the default "
+    "thresholds]",
+)
+@click.option(
     "-o",
     "--output",
     type=click.Path(dir_okay=False, path_type=Path),
@@ -29,20 +38,20 @@ from flylog.cli.common import reports_errors, stdout
     "nothing fetched from a network.",
 )
 @reports_errors
-def report(target: Path, log: Path | None, output: Path) -> None:
+def report(target: Path, log: Path | None, metrics: Path | None, output: Path) -> None:
     """Draw TARGET on one HTML page. TARGET is a run (RUN.mcap from `flylog replay`, or a
     closed-loop log): its metrics summary, a top-down map with the trajectories and
     obstacle flies, left frames with the flies drawn, curves over time and its
     configuration. Or TARGET is a sweep's directory (`flylog sweep -o DIR`): each metric
     against each grid key, a line per variant, and the results table."""
     if target.is_dir():
-        if log is not None:
-            raise click.UsageError("--log goes with a run, not a sweep's directory")
+        if log is not None or metrics is not None:
+            raise click.UsageError("--log and --metrics go with a run, not a sweep's directory")
         from flylog.report.sweep import sweep_report
 
         path = sweep_report(target, output)
     else:
         from flylog.report.run import run_report
 
-        path = run_report(target, log, output)
+        path = run_report(target, log, output, metrics=metrics)
     stdout.print(f"wrote {path} ({path.stat().st_size / 1024:.0f} KiB)", soft_wrap=True)

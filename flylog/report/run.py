@@ -101,13 +101,34 @@ def _curves(snapshots: list[dict[str, Any]], steps: Path, t0_s: float) -> list:
     return panels
 
 
-def run_report(run: Path, log: Path | None, output: Path) -> Path:
+def _metrics(run: Path, log: Path, metrics: Path | None) -> tuple[dict, list[dict]]:
+    """(summary, snapshot rows): read from a `flylog metrics -o` output, else scored now."""
+    if metrics is None:
+        from flylog.metrics.config import MetricsConfig
+        from flylog.metrics.score import score_run
+
+        result = score_run(run, log, MetricsConfig())
+        return result.summary, result.snapshots
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from flylog.metrics.tables import read_summary
+
+    summary = read_summary(metrics)
+    try:
+        snapshots = pq.read_table(metrics).to_pylist()
+    except (pa.ArrowInvalid, OSError) as exc:
+        msg = f"{metrics}: not a readable metrics table ({exc})"
+        raise LogError(msg) from None
+    return summary, snapshots
+
+
+def run_report(run: Path, log: Path | None, output: Path, *, metrics: Path | None = None) -> Path:
     """Write the page of ``run`` (a replay's output, or a closed-loop log: then it is its own
-    ``log``) scored against the truth of ``log``."""
+    ``log``) scored against the truth of ``log``, or with the tables of ``metrics`` (a
+    ``flylog metrics -o`` output of that run)."""
     from flylog.experiments import plots
     from flylog.experiments.runs import fly_snapshots, trajectories
-    from flylog.metrics.config import MetricsConfig
-    from flylog.metrics.score import score_run
     from flylog.metrics.truth import read_truth
     from flylog.replay.run import table_path
 
@@ -115,14 +136,14 @@ def run_report(run: Path, log: Path | None, output: Path) -> Path:
     if Path(output).resolve() in (run.resolve(), log.resolve()):
         msg = f"report would overwrite its input {output}: choose another -o"
         raise LogError(msg)
-    result = score_run(run, log, MetricsConfig())
+    summary, snapshots = _metrics(run, log, metrics)
     truth = read_truth(log)
     _, true_xyt, odom_xyt = trajectories(log)
     times, clouds = fly_snapshots(run)
     page = Page(f"flylog run {run.name}")
     page.note(f"run {run}, scored against the truth of {log}")
     page.heading("Summary")
-    page.table(["metric", "value", "unit", "meaning"], _summary_rows(result.summary),
+    page.table(["metric", "value", "unit", "meaning"], _summary_rows(summary),
                text_columns=1)  # fmt: skip
     with tempfile.TemporaryDirectory(prefix="flylog-report-") as tmp:
         here = Path(tmp)
@@ -148,9 +169,9 @@ def run_report(run: Path, log: Path | None, output: Path) -> Path:
             )
         else:
             page.note("The run holds no fly snapshot: no frame is drawn.")
-        if result.snapshots:
+        if snapshots:
             t0_s = float(truth.true.t_ns[0]) / 1e9
-            curves = _curves(result.snapshots, table_path(run), t0_s)
+            curves = _curves(snapshots, table_path(run), t0_s)
             page.heading("Over time")
             page.figure(
                 plots.curves_figure(here / "curves.png", curves),

@@ -40,3 +40,26 @@ def test_a_run_without_its_log_is_an_error_and_leaves_nothing(run: Path, tmp_pat
     got = CliRunner().invoke(cli, ["report", str(run), "-o", str(page)])
     assert got.exit_code == 2 and "error" in got.output
     assert list(tmp_path.iterdir()) == []
+
+
+def test_the_metrics_outputs_are_shown_as_they_are(run: Path, tmp_path: Path) -> None:
+    metrics = tmp_path / "m.parquet"
+    scored = CliRunner().invoke(
+        cli, ["metrics", str(run), "--log", str(LOG), "-o", str(metrics), "--tau", "0.2"]
+    )
+    assert scored.exit_code == 0, scored.output
+    from flylog.metrics.tables import read_summary
+
+    from flylog.metrics.score import score_run
+
+    precision = read_summary(metrics)["precision"]
+    assert score_run(run, LOG).summary["precision"] != precision  # tau matters here
+    page = tmp_path / "report.html"
+    args = ["report", str(run), "--log", str(LOG), "--metrics", str(metrics), "-o", str(page)]
+    got = CliRunner().invoke(cli, args)
+    assert got.exit_code == 0, got.output
+    headings, images, _ = checked_page(page)
+    assert len(images) == 3 and "Over time" in headings
+    text = page.read_text(encoding="utf-8")
+    # the table's own precision (tau 0.2), not a score made now with the default tau
+    assert f'<td class="text">precision</td><td>{precision:.4g}</td>' in text
