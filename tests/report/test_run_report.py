@@ -7,6 +7,8 @@ from click.testing import CliRunner
 
 from flylog.cli.main import cli
 from flylog.config import replace_dotted
+from flylog.metrics.score import score_run
+from flylog.metrics.tables import read_summary
 from flylog.replay.config import ReplayConfig
 from flylog.replay.run import replay
 
@@ -48,10 +50,6 @@ def test_the_metrics_outputs_are_shown_as_they_are(run: Path, tmp_path: Path) ->
         cli, ["metrics", str(run), "--log", str(LOG), "-o", str(metrics), "--tau", "0.2"]
     )
     assert scored.exit_code == 0, scored.output
-    from flylog.metrics.tables import read_summary
-
-    from flylog.metrics.score import score_run
-
     precision = read_summary(metrics)["precision"]
     assert score_run(run, LOG).summary["precision"] != precision  # tau matters here
     page = tmp_path / "report.html"
