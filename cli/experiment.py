@@ -67,6 +67,14 @@ DEFAULT_SEEDS = 5
     help="Keep the sensor logs and runs (MCAP, about 100 MB per 30 s at 320x240) under "
     "DIR/NAME/runs/. [default: deleted once scored]",
 )
+@click.option(
+    "--workers",
+    type=click.IntRange(min=1),
+    default=None,
+    metavar="N",
+    help="With several experiments (all): run N of them at once, each in its own process "
+    "(flylog.sweep's process pool). [default: the cores this process may use]",
+)
 @reports_errors
 def experiment(
     name: str,
@@ -77,6 +85,7 @@ def experiment(
     flies: int | None,
     quick: bool,
     keep_logs: bool,
+    workers: int | None,
 ) -> None:
     """Run one of the paper's experiments (or all) over several seeds and write a Markdown
     summary with a table and PNG plots.
@@ -97,6 +106,21 @@ def experiment(
         flies=flies,
         keep_logs=keep_logs,
     )
+    from flylog.sweep.executors import default_workers
+
+    workers = workers or default_workers()
+    if len(names) > 1 and workers > 1:
+        from flylog.experiments.parallel import LONGEST_FIRST, run_experiments
+
+        order = sorted(names, key=lambda n: LONGEST_FIRST.index(n))
+        with progress_bar(f"experiments {', '.join(order)}", unit="experiments") as update:
+            results = run_experiments(
+                order, output, options, workers=workers,
+                on_done=lambda _, done, total: update(done, total),
+            )  # fmt: skip
+        for one, result in zip(order, results, strict=True):
+            _print_result(result, EXPERIMENTS[one][2])
+        return
     for one in names:
         with progress_bar(f"experiment {one}", unit="runs") as update:
             result = run_experiment(one, output, options, on_progress=update)

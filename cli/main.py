@@ -20,6 +20,8 @@ _COMMANDS = {
     "compare": ("compare", "compare"),
     "export": ("export", "export"),
     "experiment": ("experiment", "experiment"),
+    "sweep": ("sweep", "sweep"),
+    "report": ("report", "report"),
 }
 
 

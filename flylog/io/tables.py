@@ -1,5 +1,9 @@
 """Parquet tables, written atomically and streamed in row groups (bounded memory).
 
+Each column's unit and description are in its Arrow field metadata and, for readers that
+drop field metadata (polars, pandas, DuckDB), in the file's Parquet key-value metadata too:
+``flylog.columns`` holds ``{column: {"unit": …, "description": …}}`` as JSON.
+
 pyarrow is imported when a table is first needed (a schema built, a row appended), not
 with this module: replay's start (where nothing else runs) need not wait for it; its
 planner worker imports it at the first row, beside the engine's work (~50 ms).
@@ -7,6 +11,7 @@ planner worker imports it at the first row, beside the engine's work (~50 ms).
 
 from __future__ import annotations
 
+import json
 import os
 from collections.abc import Iterable, Sequence
 from pathlib import Path
@@ -37,16 +42,29 @@ def _arrow_type(type_: Any) -> pa.DataType:
     return pa.type_for_alias(type_) if isinstance(type_, str) else type_
 
 
+COLUMNS_METADATA_KEY = "flylog.columns"
+
+
+def columns_metadata(columns: Iterable[Column]) -> str:
+    """The ``flylog.columns`` key-value metadata of a table: each column's unit and
+    description, as JSON."""
+    return json.dumps({c.name: {"unit": c.unit, "description": c.description} for c in columns})
+
+
 def schema(columns: Iterable[Column]) -> pa.Schema:
+    """The Arrow schema of documented columns: units and descriptions in each field's
+    metadata and, all together, in the schema's (the Parquet file's key-value metadata)."""
     import pyarrow as pa
 
+    columns = tuple(columns)
     return pa.schema(
         [
             pa.field(
                 c.name, _arrow_type(c.type), metadata={"description": c.description, "unit": c.unit}
             )
             for c in columns
-        ]
+        ],
+        metadata={COLUMNS_METADATA_KEY: columns_metadata(columns)},
     )
 
 
@@ -97,7 +115,9 @@ class TableWriter:
         if self._schema is None:
             source = self._source
             out = schema(source) if isinstance(source, tuple) else source
-            self._schema = out.with_metadata(self._metadata) if self._metadata else out
+            if self._metadata:  # added to the schema's own (flylog.columns)
+                out = out.with_metadata({**(out.metadata or {}), **self._metadata})
+            self._schema = out
         return self._schema
 
     def __enter__(self) -> TableWriter:

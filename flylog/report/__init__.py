@@ -1,0 +1,1 @@
+"""Self-contained HTML reports (``flylog report``) of a run or of a sweep."""

@@ -1,0 +1,214 @@
+"""Where a sweep's work runs: a local process pool, or Ray tasks on a local or remote
+cluster. Both take a top-level function and its arguments (picklable), run each call in a
+worker process that has run :func:`flylog.sweep.warm.warm_up` once, and yield
+``(index, result)`` as calls finish, in any order; ``running`` is how many calls are being
+worked on at the moment. A call whose worker process died (killed, out of memory, a crash
+in compiled code) gives ``lost(index, message)`` when the caller passes ``lost``; without
+it, a WorkerLost error.
+
+Inputs and outputs travel by path: on a cluster, every node must see the sweep's inputs
+and its output directory at the same paths (shared storage, e.g. NFS).
+"""
+
+from __future__ import annotations
+
+import enum
+import os
+from collections.abc import Callable, Iterator, Sequence
+from typing import Any, Protocol, TypeVar
+
+from flylog.errors import ConfigError, FlylogError
+from flylog.sweep.warm import warm_up
+
+A = TypeVar("A")
+R = TypeVar("R")
+
+RAY_ADDRESS_ENV = "RAY_ADDRESS"
+
+
+class Backend(enum.Enum):
+    PROCESSES = "processes"
+    RAY = "ray"
+
+
+def default_workers() -> int:
+    """The cores this process may use."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        return os.cpu_count() or 1
+
+
+class WorkerLost(FlylogError):
+    """A worker process ended before its call returned."""
+
+
+Lost = Callable[[int, str], R]
+
+
+def _lost(lost: Lost[R] | None, index: int, message: str) -> R:
+    if lost is None:
+        raise WorkerLost(message)
+    return lost(index, message)
+
+
+class Executor(Protocol):
+    workers: int
+
+    @property
+    def running(self) -> int: ...
+
+    def map_unordered(
+        self, fn: Callable[[A], R], items: Sequence[A], lost: Lost[R] | None = None
+    ) -> Iterator[tuple[int, R]]: ...
+
+    def close(self) -> None: ...
+
+
+def _warmed_call(fn: Callable[[A], R], item: A, numba_threads: int) -> R:
+    warm_up(numba_threads)
+    return fn(item)
+
+
+def _plain_call(fn: Callable[[A], R], item: A, numba_threads: int) -> R:
+    return fn(item)
+
+
+class ProcessPool:
+    """``workers`` processes (spawned: fresh interpreters, as Ray's workers are), each with
+    ``numba_threads`` numba threads (1 by default: the workers already fill the cores);
+    ``warm``: each runs :func:`~flylog.sweep.warm.warm_up` first."""
+
+    def __init__(self, workers: int, *, numba_threads: int = 1, warm: bool = True) -> None:
+        self.workers = workers
+        self._threads = numba_threads
+        self._warm = warm
+        self._pending = 0
+        self._pool = self._new_pool()
+
+    def _new_pool(self) -> Any:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        context = multiprocessing.get_context("spawn")
+        if not self._warm:
+            return ProcessPoolExecutor(max_workers=self.workers, mp_context=context)
+        return ProcessPoolExecutor(
+            max_workers=self.workers,
+            mp_context=context,
+            initializer=warm_up,
+            initargs=(self._threads,),
+        )
+
+    def _submit(self, fn: Callable[[A], R], item: A) -> Any:
+        from concurrent.futures.process import BrokenProcessPool
+
+        call = _warmed_call if self._warm else _plain_call
+        try:
+            return self._pool.submit(call, fn, item, self._threads)
+        except BrokenProcessPool:  # a worker died in an earlier map: start afresh
+            self._pool.shutdown(wait=True)
+            self._pool = self._new_pool()
+            return self._pool.submit(call, fn, item, self._threads)
+
+    @property
+    def running(self) -> int:
+        return min(self.workers, self._pending)
+
+    def map_unordered(
+        self, fn: Callable[[A], R], items: Sequence[A], lost: Lost[R] | None = None
+    ) -> Iterator[tuple[int, R]]:
+        from concurrent.futures import as_completed
+        from concurrent.futures.process import BrokenProcessPool
+
+        futures = {self._submit(fn, item): i for i, item in enumerate(items)}
+        self._pending = len(futures)
+        try:
+            for future in as_completed(futures):
+                self._pending -= 1
+                i = futures[future]
+                try:
+                    result = future.result()
+                except BrokenProcessPool as exc:  # every call not finished then fails so
+                    result = _lost(lost, i, f"a worker process ended abruptly ({exc})")
+                yield i, result
+        finally:
+            for future in futures:
+                future.cancel()
+            self._pending = 0
+
+    def close(self) -> None:
+        self._pool.shutdown(wait=True, cancel_futures=True)
+
+
+class RayCluster:
+    """Ray tasks of one CPU each. ``address`` (or ``RAY_ADDRESS``) joins a running cluster;
+    without either, a local cluster of ``workers`` CPUs is started and stopped with this."""
+
+    def __init__(self, workers: int, *, address: str | None = None) -> None:
+        try:
+            import ray
+        except ImportError:
+            msg = "--backend ray needs Ray: pip install 'flylog[ray]'"
+            raise ConfigError(msg) from None
+        self._ray = ray
+        address = address or os.environ.get(RAY_ADDRESS_ENV) or None
+        kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False}
+        if address is None:
+            # a new local cluster, never one found on the machine
+            kwargs.update(address="local", num_cpus=workers)
+        else:
+            kwargs.update(address=address)
+        try:
+            ray.init(**kwargs)
+        except (ConnectionError, ValueError, RuntimeError) as exc:
+            msg = f"cannot start or join the Ray cluster {address or '(local)'}: {exc}"
+            raise ConfigError(msg) from None
+        self.workers = int(ray.cluster_resources().get("CPU", workers))
+        self._pending = 0
+        self._remote: Any = ray.remote(num_cpus=1, max_retries=0)(_warmed_call)
+
+    @property
+    def running(self) -> int:
+        return min(self.workers, self._pending)
+
+    def map_unordered(
+        self, fn: Callable[[A], R], items: Sequence[A], lost: Lost[R] | None = None
+    ) -> Iterator[tuple[int, R]]:
+        ray = self._ray
+        from ray.exceptions import RayError
+
+        refs = {self._remote.remote(fn, item, 1): i for i, item in enumerate(items)}
+        pending = list(refs)
+        self._pending = len(pending)
+        try:
+            while pending:
+                done, pending = ray.wait(pending, num_returns=1)
+                self._pending = len(pending)
+                for ref in done:
+                    try:
+                        result = ray.get(ref)
+                    except RayError as exc:  # its worker or node died, or it was cancelled
+                        first = str(exc).strip().splitlines()[:1]
+                        message = f"Ray lost the task: {type(exc).__name__}: {''.join(first)}"
+                        result = _lost(lost, refs[ref], message)
+                    yield refs[ref], result
+        finally:
+            for ref in pending:
+                ray.cancel(ref)
+            self._pending = 0
+
+    def close(self) -> None:
+        self._ray.shutdown()
+
+
+def make_executor(backend: Backend, workers: int, *, address: str | None = None) -> Executor:
+    if workers < 1:
+        msg = f"workers must be at least 1, got {workers}"
+        raise ConfigError(msg)
+    if backend is Backend.RAY:
+        return RayCluster(workers, address=address)
+    if address is not None:
+        msg = "--address goes with --backend ray"
+        raise ConfigError(msg)
+    return ProcessPool(workers)

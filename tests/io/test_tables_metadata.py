@@ -1,0 +1,37 @@
+"""Units and descriptions reach readers that keep only the Parquet file's key-value
+metadata (polars, pandas and DuckDB drop Arrow's field metadata)."""
+
+from __future__ import annotations
+
+import json
+
+import pyarrow.parquet as pq
+
+from flylog.io.tables import COLUMNS_METADATA_KEY, Column, TableWriter
+from flylog.metrics.tables import SUMMARY_COLUMNS, write_table
+
+COLUMNS = (Column("t", "float64", "s", "log time"), Column("n", "int64", "", "a count"))
+
+
+def test_columns_are_in_the_files_key_value_metadata(tmp_path):
+    path = tmp_path / "steps.parquet"
+    with TableWriter(path, COLUMNS, metadata={"k": "v"}) as table:
+        table.append({"t": 0.5, "n": 1})
+    kv = pq.ParquetFile(path).metadata.metadata  # the footer's key-value pairs
+    assert kv[b"k"] == b"v"
+    assert json.loads(kv[COLUMNS_METADATA_KEY.encode()]) == {
+        "t": {"unit": "s", "description": "log time"},
+        "n": {"unit": "", "description": "a count"},
+    }
+    assert pq.read_schema(path).field("t").metadata[b"unit"] == b"s"
+
+
+def test_metrics_tables_carry_them_beside_their_own_metadata(tmp_path):
+    path = tmp_path / "m.summary.parquet"
+    row = {c.name: None for c in SUMMARY_COLUMNS}
+    write_table(path, SUMMARY_COLUMNS, [row], {"flylog.metrics": "{}"})
+    kv = pq.ParquetFile(path).metadata.metadata
+    assert kv[b"flylog.metrics"] == b"{}"
+    columns = json.loads(kv[COLUMNS_METADATA_KEY.encode()])
+    assert list(columns) == [c.name for c in SUMMARY_COLUMNS]
+    assert columns["ate_m"]["unit"] == "m"

@@ -1,0 +1,63 @@
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from flylog.cli.main import cli
+from flylog.config import replace_dotted
+from flylog.metrics.score import score_run
+from flylog.metrics.tables import read_summary
+from flylog.replay.config import ReplayConfig
+from flylog.replay.run import replay
+
+from .pages import checked_page
+
+LOG = Path(__file__).resolve().parents[2] / "fixtures" / "logs" / "near-obstacle.mcap"
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("run") / "run.mcap"
+    config = replace_dotted(ReplayConfig(), {"engine.flies": 200, "generations_per_frame": 1})
+    replay(LOG, out, config)
+    return out
+
+
+def test_the_page_has_every_section_and_decodable_images(run: Path, tmp_path: Path) -> None:
+    page = tmp_path / "report.html"
+    got = CliRunner().invoke(cli, ["report", str(run), "--log", str(LOG), "-o", str(page)])
+    assert got.exit_code == 0, got.output
+    headings, images, tags = checked_page(page)
+    assert headings == ["Summary", "Map", "Left frames", "Over time", "Configuration"]
+    assert len(images) == 3  # map, frames, curves
+    text = page.read_text(encoding="utf-8")
+    assert '<td class="text">precision</td>' in text and '"flies": 200' in text
+    assert sum(1 for t, _ in tags if t == "tr") == 1 + 30  # header + every summary column
+
+
+def test_a_run_without_its_log_is_an_error_and_leaves_nothing(run: Path, tmp_path: Path) -> None:
+    page = tmp_path / "report.html"
+    got = CliRunner().invoke(cli, ["report", str(run), "-o", str(page)])
+    assert got.exit_code == 2 and "error" in got.output
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_the_metrics_outputs_are_shown_as_they_are(run: Path, tmp_path: Path) -> None:
+    metrics = tmp_path / "m.parquet"
+    scored = CliRunner().invoke(
+        cli, ["metrics", str(run), "--log", str(LOG), "-o", str(metrics), "--tau", "0.2"]
+    )
+    assert scored.exit_code == 0, scored.output
+    precision = read_summary(metrics)["precision"]
+    assert score_run(run, LOG).summary["precision"] != precision  # tau matters here
+    page = tmp_path / "report.html"
+    args = ["report", str(run), "--log", str(LOG), "--metrics", str(metrics), "-o", str(page)]
+    got = CliRunner().invoke(cli, args)
+    assert got.exit_code == 0, got.output
+    headings, images, _ = checked_page(page)
+    assert len(images) == 3 and "Over time" in headings
+    text = page.read_text(encoding="utf-8")
+    # the table's own precision (tau 0.2), not a score made now with the default tau
+    assert f'<td class="text">precision</td><td>{precision:.4g}</td>' in text

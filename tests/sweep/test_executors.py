@@ -1,0 +1,22 @@
+from __future__ import annotations
+
+import os
+
+from flylog.sweep.executors import ProcessPool
+
+
+def exit_on_one(x: int) -> int:
+    """Kills its worker process for 1 (as the kernel's OOM killer or a crash would)."""
+    if x == 1:
+        os._exit(3)
+    return 10 * x
+
+
+def test_a_dead_worker_gives_lost_results_and_the_pool_starts_again() -> None:
+    pool = ProcessPool(1, warm=False)
+    try:
+        lost = dict(pool.map_unordered(exit_on_one, [1], lost=lambda i, m: m))
+        assert "a worker process ended abruptly" in lost[0]
+        assert dict(pool.map_unordered(exit_on_one, [0, 2])) == {0: 0, 1: 20}
+    finally:
+        pool.close()
