@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 DEMO_DIR := demo-out
 
-.PHONY: demo test lint bench fixtures experiments clean bytecode
+.PHONY: demo test lint bench fixtures experiments docs clean bytecode
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -27,6 +27,7 @@ demo: $(STAMP)
 lint: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
+	$(BIN)/mypy
 
 test: lint
 	$(BIN)/python -m pytest -q
@@ -36,6 +37,11 @@ bench: $(STAMP)
 
 experiments: $(STAMP)
 	$(BIN)/flylog experiment all -o docs/experiments
+
+# docs/configuration.md and the table schemas in docs/metrics.md, from the code (a test
+# checks they are current).
+docs: $(STAMP)
+	$(BIN)/python -m flylog.reference_docs docs
 
 fixtures: $(STAMP)
 	$(BIN)/python fixtures/regenerate.py

@@ -98,9 +98,10 @@ def freeze_imported_objects() -> None:
     a command to call once its heavy imports are done.
 
     Why: the modules, classes and numba's type registries that the imports make (~120 000
-    objects) live until the process exits, and each full collection walked them all: two
-    during the 60 s reference replay, 70-90 ms of the main thread at its start (where
-    nothing else runs); one, 20-40 ms, after this (while numba loads its cache).
+    objects) live until the process exits, and each full collection walks them all:
+    without the freeze, two during the 60 s reference replay, 70-90 ms of the main thread at
+    its start (where nothing else runs); with it, one, 20-40 ms, after this (while numba
+    loads its cache).
     Process-wide: here, not in the library. Collections come as often again as Python's
     defaults have them (main() makes them rarer while the command imports)."""
     gc.freeze()

@@ -111,16 +111,18 @@ def _convert(tp: Any, value: Any, where: str, source: str) -> Any:
     if origin is tuple:
         if not isinstance(value, (list, tuple)):
             raise ConfigError(bad)
-        args = typing.get_args(tp)
-        if len(args) == 2 and args[1] is Ellipsis:
-            return tuple(_convert(args[0], v, f"{where}[{i}]", source) for i, v in enumerate(value))
-        if len(value) != len(args):
+        items = typing.get_args(tp)
+        if len(items) == 2 and items[1] is Ellipsis:
+            return tuple(
+                _convert(items[0], v, f"{where}[{i}]", source) for i, v in enumerate(value)
+            )
+        if len(value) != len(items):
             raise ConfigError(bad)
         return tuple(
             _convert(a, v, f"{where}[{i}]", source)
-            for i, (a, v) in enumerate(zip(args, value, strict=True))
+            for i, (a, v) in enumerate(zip(items, value, strict=True))
         )
-    if dataclasses.is_dataclass(tp):
+    if isinstance(tp, type) and dataclasses.is_dataclass(tp):
         if not isinstance(value, Mapping):
             raise ConfigError(bad)
         return from_mapping(tp, value, source=source, prefix=where)

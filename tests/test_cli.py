@@ -30,8 +30,8 @@ def test_help_does_not_import_numba_or_mcap():
 
 @pytest.mark.parametrize("unit", ["s", "frames"])
 def test_progress_bar_draws_on_a_terminal_before_and_after_the_first_update(unit):
-    """On a terminal the bar is drawn as it starts, before any total is known (it once
-    formatted that None total and crashed every command run from a terminal)."""
+    """On a terminal the bar is drawn as it starts, before any total is known: the None
+    total formats, or every command run from a terminal would crash."""
     import io
 
     from rich.console import Console
@@ -85,8 +85,8 @@ def test_progress_bar_off_a_terminal_draws_nothing_and_skips_rich_progress():
 
 
 def test_replay_leaves_its_imports_out_of_garbage_collection(tmp_path):
-    """`flylog replay` freezes what its imports made (gc.freeze): full collections no longer
-    walk numba's registries. In a fresh interpreter, as the command runs."""
+    """`flylog replay` freezes what its imports made (gc.freeze): full collections leave
+    numba's registries out. In a fresh interpreter, as the command runs."""
     code = (
         "import gc, sys\n"
         "import flylog.cli.main as entry\n"

@@ -61,7 +61,7 @@ def stereo_matcher(config: SgbmConfig) -> cv2.StereoSGBM:
     """The OpenCV matcher the configuration describes."""
     channels = 1 if config.grey else 3
     area = channels * config.block_size**2
-    return cv2.StereoSGBM_create(
+    return cv2.StereoSGBM.create(
         minDisparity=0,
         numDisparities=config.num_disparities,
         blockSize=config.block_size,
@@ -96,8 +96,8 @@ def texture_confidence(
     """(N,) float64 at the pixels (u, v): 1 + the mean 3×3 Sobel gradient norm (grey levels)
     over the ``block_size`` block around each (borders reflected)."""
     r = block_size // 2
-    # Integer Sobel (exact), then only the N blocks: a whole-image float box filter cost a
-    # third of SGBM at 640×480, and cv2.blur's last bits changed from run to run.
+    # Integer Sobel (exact), then only the N blocks: a whole-image float box filter costs a
+    # third of SGBM at 640×480, and cv2.blur's last bits vary from run to run.
     gx = np.pad(cv2.Sobel(grey, cv2.CV_16S, 1, 0, ksize=3), r, mode="symmetric")
     gy = np.pad(cv2.Sobel(grey, cv2.CV_16S, 0, 1, ksize=3), r, mode="symmetric")
     offsets = np.arange(block_size)

@@ -46,7 +46,7 @@ MAX_FLIES_DRAWN = 4000  # obstacle flies of seed 0 on the map, subsampled evenly
 # A time limit, not a duration: a run ends when the planner reports the goal reached. The
 # scenes' own durations (30 s, 40 s) suit their scripted drives, not the planner's slower,
 # winding paths: clutter's round outside its walls takes 92-104 s, and clutter seed 18's
-# 44 m one 120.8 s (a 120 s limit ended it 0.39 m short, still driving).
+# 44 m one 120.8 s (a 120 s limit ends it 0.39 m short, still driving).
 TIME_LIMIT = 180.0  # s
 
 

@@ -74,11 +74,11 @@ def mode_configs(
         ),
     }
     if sgbm_available():
-        from flylog.replay.config import Stereo  # type: ignore[attr-defined]
+        from flylog.replay.config import Stereo
 
         w, h = options.resolution
         # the baseline's cost is measured at 640×480; it scales with the pixel count
-        cost = base.sgbm.seconds_per_frame * w * h / PAPER_PIXELS  # type: ignore[attr-defined]
+        cost = base.sgbm.seconds_per_frame * w * h / PAPER_PIXELS
         modes["sync SGBM"] = replace_dotted(
             base, {"stereo": Stereo.SGBM, "sgbm.seconds_per_frame": cost}
         )

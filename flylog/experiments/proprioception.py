@@ -191,7 +191,7 @@ def _figures(
                 plots.MapPanel(
                     f"{label}, frame {n}",
                     flies=to_world(clouds[i], pose),
-                    view_from=tuple(float(v) for v in pose),
+                    view_from=(float(pose[0]), float(pose[1]), float(pose[2])),
                     extent=(-1.0, 7.0, -4.5, 3.5),
                 )
             )

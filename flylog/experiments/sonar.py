@@ -209,7 +209,7 @@ def _figures(
             plots.MapPanel(
                 f"{label}, t = {t_s:.1f} s",
                 flies=to_world(clouds[i], pose),
-                view_from=tuple(float(v) for v in pose),
+                view_from=(float(pose[0]), float(pose[1]), float(pose[2])),
                 extent=(-0.5, 7.0, -3.5, 3.5),
             )
         )

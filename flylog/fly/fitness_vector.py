@@ -189,7 +189,7 @@ def window_terms_intrinsic(pair_sums, halves: int):
 
 def target_has_avx2() -> bool:
     """AVX2 on the CPU numba compiles for (the host, unless NUMBA_CPU_NAME/FEATURES say else)."""
-    if numba.config.CPU_NAME or numba.config.CPU_FEATURES:
+    if getattr(numba.config, "CPU_NAME", None) or getattr(numba.config, "CPU_FEATURES", None):
         return False
     return bool(llvm.get_host_cpu_features().get("avx2", False))
 

@@ -268,13 +268,13 @@ def sonar_immigrants(
             arc_constants(rig, margin), tries, out,
         )  # fmt: skip
         return out[:found]
-    found: list[np.ndarray] = []
+    batches: list[np.ndarray] = []
     for _ in range(tries):
-        found.append(arc_immigrants_numpy(arc_draws(rng, reading, n, rig, tolerance), reading,
+        batches.append(arc_immigrants_numpy(arc_draws(rng, reading, n, rig, tolerance), reading,
                                           n, rig, margin))  # fmt: skip
-        if sum(map(len, found)) >= n:
+        if sum(map(len, batches)) >= n:
             break
-    return np.concatenate(found)[:n]
+    return np.concatenate(batches)[:n]
 
 
 def moved_by_odometry(xyz: np.ndarray, increment: Pose2D) -> np.ndarray:

@@ -401,7 +401,8 @@ def yaw_scores_numba(
     xyz = np.ascontiguousarray(xyz, dtype=np.float64)
     moved = np.ascontiguousarray(moved_by_odometry(xyz, increment), dtype=np.float64)
     out = np.empty(len(offsets))
-    _yaw_scores_kernel(*rows, channels, xyz, moved, np.asarray(offsets, np.float64),
+    lk, rk, l1, r1 = rows
+    _yaw_scores_kernel(lk, rk, l1, r1, channels, xyz, moved, np.asarray(offsets, np.float64),
                        rig_constants(rig), window, float(guard), out)  # fmt: skip
     return out
 

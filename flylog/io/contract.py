@@ -110,7 +110,7 @@ _FOXGLOVE_CLASSES = {
 }
 
 
-def _foxglove_types() -> MappingProxyType[str, type]:
+def _foxglove_types() -> MappingProxyType[str, Any]:
     # Only writing needs the classes (their schemas): reading decodes by the schema each log
     # carries, and importing the Foxglove SDK costs every reading command ~15 ms.
     import foxglove.messages as fm

@@ -4,7 +4,6 @@ contract (Foxglove protobuf messages, or dicts for the JSON topics)."""
 from __future__ import annotations
 
 import math
-import struct
 from collections.abc import Iterable, Sequence
 from typing import Any
 
@@ -13,6 +12,7 @@ import numpy as np
 
 from flylog.geometry import Pose2D, StereoRig, yaw_quaternion
 from flylog.io import contract
+from flylog.io import protobuf_wire as wire
 from flylog.io.records import BoxShape, CylinderShape, Transform
 from flylog.sensors import SonarConfig, SonarReading
 
@@ -223,7 +223,7 @@ def point_cloud(
 
 class _Encoded:
     """A Foxglove message encoded here with numpy (messages of hundreds of points or poses,
-    where building one SDK object each cost milliseconds). The writer takes it as it takes
+    where building one SDK object each costs milliseconds). The writer takes it as it takes
     the SDK's messages: ``get_schema()`` on the class, ``encode()``."""
 
     __slots__ = ("_data",)
@@ -253,7 +253,7 @@ def image_annotations(
     """One POINTS annotation: pixel positions (N, 2) with per-point RGBA colours (N, 4).
 
     Encoded here with numpy, byte for byte as the SDK's ``fm.ImageAnnotations(...).encode()``
-    (tests/io/test_encode_bytes.py checks it): building one SDK object per point cost
+    (tests/io/test_encode_bytes.py checks it): building one SDK object per point costs
     ~1.8 ms for a 1000-fly overlay, 5 times a second of log; this takes ~0.1 ms."""
     uv = np.asarray(uv, dtype=float)
     colours = np.asarray(colours, dtype=float)
@@ -262,95 +262,21 @@ def image_annotations(
         raise ValueError(msg)
     timestamp(stamp_ns)  # the SDK's range checks (seconds in uint32), same errors
     sec, nsec = _split_ns(stamp_ns)
-    stamp = _varint_field(1, sec) + _varint_field(2, nsec)  # google.protobuf.Timestamp
+    stamp = wire.varint_field(1, sec) + wire.varint_field(2, nsec)  # google.protobuf.Timestamp
     # PointsAnnotation fields, in field-number order as the SDK writes them: timestamp 1,
     # type 2, points 3 (Point2 x 1, y 2), outline_colors 5 (Color r 1, g 2, b 3, a 4),
     # thickness 7
     annotation = b"".join(
         (
-            _bytes_field(1, stamp),
-            _varint_field(2, fm.PointsAnnotationType.Points.value),
-            _repeated_doubles(3, uv),
-            _repeated_doubles(5, colours),
-            _double_field(7, float(thickness)),
+            wire.bytes_field(1, stamp),
+            wire.varint_field(2, fm.PointsAnnotationType.Points.value),
+            wire.repeated_doubles(3, uv),
+            wire.repeated_doubles(5, colours),
+            wire.double_field(7, float(thickness)),
         )
     )
     # ImageAnnotations: points 2, timestamp 5
-    return EncodedImageAnnotations(_bytes_field(2, annotation) + _bytes_field(5, stamp))
-
-
-# --- protobuf wire format (proto3: scalar fields equal to zero are left out) ---------------
-
-
-def _varint(value: int) -> bytes:
-    out = bytearray()
-    while value > 0x7F:
-        out.append((value & 0x7F) | 0x80)
-        value >>= 7
-    out.append(value)
-    return bytes(out)
-
-
-def _varint_field(number: int, value: int) -> bytes:
-    return _varint(number << 3) + _varint(value) if value else b""
-
-
-def _double_field(number: int, value: float) -> bytes:
-    return bytes([number << 3 | 1]) + struct.pack("<d", value) if value != 0.0 else b""
-
-
-def _bytes_field(number: int, payload: bytes) -> bytes:
-    """A length-delimited field (sub-message), present even when empty."""
-    return _varint(number << 3 | 2) + _varint(len(payload)) + payload
-
-
-def _doubles_messages(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """For each row of ``rows`` (N, k ≤ 14), a message whose fields 1..k are its doubles:
-    the (N, 9k) bytes with every field, which bytes to keep (fields equal to zero, -0.0 too,
-    are left out, as the SDK does; NaN is written), and each message's length."""
-    n, k = rows.shape
-    record = np.empty((n, k, 9), dtype=np.uint8)
-    record[:, :, 0] = np.arange(1, k + 1) << 3 | 1
-    record[:, :, 1:] = np.ascontiguousarray(rows, dtype="<f8").view(np.uint8).reshape(n, k, 8)
-    present = rows != 0.0
-    return record.reshape(n, 9 * k), np.repeat(present, 9, axis=1), 9 * present.sum(axis=1)
-
-
-def _kept(parts: list[tuple[np.ndarray, np.ndarray | None]]) -> bytes:
-    """The rows of the parts side by side, row after row, without the bytes not kept
-    (``None``: all kept)."""
-    record = np.hstack([p for p, _ in parts])
-    keep = np.hstack([np.ones(p.shape, bool) if k is None else k for p, k in parts])
-    return record[keep].tobytes()
-
-
-def _heads(*columns: int | np.ndarray, n: int) -> np.ndarray:
-    """(n, len(columns)) bytes: tags and one-byte lengths (every length here is < 128)."""
-    out = np.empty((n, len(columns)), dtype=np.uint8)
-    for i, column in enumerate(columns):
-        out[:, i] = column
-    return out
-
-
-def _repeated_doubles(number: int, rows: np.ndarray) -> bytes:
-    """Field ``number`` repeated: one message per row, its fields 1..k the row's doubles."""
-    body, keep, length = _doubles_messages(rows)
-    return _kept([(_heads(number << 3 | 2, length, n=len(rows)), None), (body, keep)])
-
-
-def _repeated_poses(number: int, position: np.ndarray, orientation: np.ndarray) -> bytes:
-    """Field ``number`` repeated: one Pose per row, position (N, 3) and orientation (N, 4)."""
-    p_body, p_keep, p_len = _doubles_messages(position)
-    q_body, q_keep, q_len = _doubles_messages(orientation)
-    n = len(position)
-    return _kept(
-        [
-            (_heads(number << 3 | 2, 4 + p_len + q_len, 1 << 3 | 2, p_len, n=n), None),
-            (p_body, p_keep),
-            (_heads(2 << 3 | 2, q_len, n=n), None),
-            (q_body, q_keep),
-        ]
-    )
+    return EncodedImageAnnotations(wire.bytes_field(2, annotation) + wire.bytes_field(5, stamp))
 
 
 def grid(
@@ -395,9 +321,9 @@ def poses_in_frame(poses: np.ndarray, stamp_ns: int, frame_id: str) -> EncodedPo
     orientation = np.column_stack([zeros, zeros, np.sin(half), np.cos(half)])
     # PosesInFrame: timestamp 1, frame_id 2, poses 3 (Pose: position 1, orientation 2)
     return EncodedPosesInFrame(
-        _bytes_field(1, _varint_field(1, sec) + _varint_field(2, nsec))
-        + (_bytes_field(2, frame_id.encode()) if frame_id else b"")
-        + _repeated_poses(3, position, orientation)
+        wire.bytes_field(1, wire.varint_field(1, sec) + wire.varint_field(2, nsec))
+        + (wire.bytes_field(2, frame_id.encode()) if frame_id else b"")
+        + wire.repeated_poses(3, position, orientation)
     )
 
 

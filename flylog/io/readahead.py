@@ -21,9 +21,9 @@ _POLL_S = 0.05  # how often a blocked producer checks whether the consumer has g
 
 # Helper threads (this reader, replay's planner worker) run this much nicer than the thread
 # that does the work they serve. Why: replay's engine runs generation after generation on the
-# main thread, its wall time is that thread's; with three busy threads on two cores the
-# scheduler shares the cores evenly and the main thread waited a third of the time, while the
-# helpers, which have slack (bounded queues), could have waited instead.
+# main thread, its wall time is that thread's; with three busy threads on two cores at equal
+# niceness the scheduler shares the cores evenly and the main thread waits a third of the
+# time, while the helpers, which have slack (bounded queues), can wait instead.
 HELPER_NICENESS = 10
 
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import json
 import os
 import warnings
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Callable, Generator, Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import Any, BinaryIO
 
@@ -222,14 +222,14 @@ class LogReader:
 
     def messages(
         self, topics: Iterable[str] | None = None, *, read_ahead: int = 0
-    ) -> Iterator[LogMessage]:
+    ) -> Generator[LogMessage, None, None]:
         """Messages in log-time order, each decoded into plain values by its schema.
 
         With ``read_ahead`` > 0, a background thread reads, decompresses and decodes up to
         that many messages ahead of the consumer (see :mod:`flylog.io.readahead`)."""
         decode = _Decoding(self.path)
         damage: list[str] = []
-        decoded = (decode(raw) for raw in self._raw(topics, damage))
+        decoded: Iterator[LogMessage] = (decode(raw) for raw in self._raw(topics, damage))
         if read_ahead > 0:
             decoded = read_ahead_of(decoded, read_ahead)
         yield from decoded

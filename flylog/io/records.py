@@ -90,7 +90,7 @@ class LogMessage(NamedTuple):
 
 class TopicInfo(NamedTuple):
     schema: str
-    count: int
+    count: int  # type: ignore[assignment]  # shadows tuple.count, which nothing calls
 
 
 class LogAttachment(NamedTuple):

@@ -11,7 +11,7 @@ import heapq
 import io
 import itertools
 import struct
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import IO
 
@@ -72,7 +72,7 @@ def _parse(opcode: int, body: bytes) -> list[object]:
     stream = ReadDataStream(io.BytesIO(body))
     if opcode == Opcode.MESSAGE:
         return [Message.read(stream, len(body))]
-    readers = {
+    readers: dict[int, Callable[[ReadDataStream], object]] = {
         Opcode.SCHEMA: Schema.read,
         Opcode.CHANNEL: Channel.read,
         Opcode.ATTACHMENT: Attachment.read,

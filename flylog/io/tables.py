@@ -51,7 +51,7 @@ def schema(columns: Iterable[Column]) -> pa.Schema:
 
 
 def schema_markdown(columns: Iterable[Column]) -> str:
-    """A Markdown table of the columns (for the README)."""
+    """A Markdown table of the columns (for docs/metrics.md: `make docs`)."""
     lines = ["| column | type | unit | meaning |", "|---|---|---|---|"]
     lines += [
         f"| `{c.name}` | {_arrow_type(c.type)} | {c.unit} | {c.description} |" for c in columns

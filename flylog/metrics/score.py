@@ -101,8 +101,8 @@ def _number(meta: dict[str, str], key: str, kind: type) -> Any:
 
 def run_facts(reader: LogReader, config: MetricsConfig) -> RunFacts:
     """The obstacle rule and run statistics of a run file. A run without flylog's
-    configuration, or written before the rule measured distinctness, is scored by the
-    paper's rule (no distinctness: its clouds carry none)."""
+    configuration, or whose ``[obstacles]`` table has no ``min_distinctness``, is scored by
+    the paper's rule (no distinctness: its clouds carry none)."""
     meta = reader.metadata().get(contract.REPLAY_METADATA, {})
     rule = ObstacleFlies(min_distinctness=0.0)
     if "config" in meta:

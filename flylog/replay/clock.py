@@ -34,27 +34,46 @@ class Mode(enum.Enum):
 
 
 class Pipeline(Protocol):
-    """What the clock drives (the engine + planner wiring implements it)."""
+    """What the clock drives, and when: the one statement of the calls a pipeline receives
+    (:class:`flylog.replay.pipeline.FlyPipeline` implements it for the engine and the
+    planner).
+
+    The clock calls, in the order of virtual time:
+
+    1. :meth:`deliver` for each record once it is available, before any generation that
+       starts at or after that time;
+    2. :meth:`generation`, or :meth:`run_generations` for several that nothing can come
+       between: back to back (``ASYNC``) or N per stereo pair (``PER_FRAME``, ``SYNC``);
+    3. :meth:`publish` after each generation (after the last of a :meth:`run_generations`
+       call), or, ``SYNC``, after a frame's N generations;
+    4. :meth:`tick` at each due time of ``ClockConfig.tick_periods_ns``. A tick due while
+       a generation runs fires after that generation's call: it reads what was published
+       before, never a population still being computed.
+
+    ``tick_before_publish`` says whether a tick may fire after the call's generations start
+    and before the next :meth:`publish`. False (the clock knows ``max_generation_cost_ns``
+    and no tick falls due in time) lets the pipeline drop what was published last instead
+    of copying it: no tick can read it.
+    """
 
     def deliver(self, record: object) -> None:
         """A sensor record became available (stereo pair, sonar reading, odometry)."""
 
-    def generation(self, keep_published: bool) -> tuple[int, int]:
+    def generation(self, tick_before_publish: bool, /) -> tuple[int, int]:
         """Run one generation on the newest data; return the fitness evaluations it made
-        and the virtual time it costs (ns, at least 1). ``keep_published`` False: no tick
-        fires before the next publish, so what was published need not outlive this step."""
+        and the virtual time it costs (ns, at least 1)."""
 
-    def run_generations(self, count: int, keep_published: bool) -> list[tuple[int, int]]:
-        """``count`` generations as ``count`` calls of ``generation(keep_published)`` make
-        them, each one's (evaluations, cost): the clock asks for several at once only when
-        no record and no tick can come between them, so nothing can see the populations
-        between."""
+    def run_generations(self, count: int, tick_before_publish: bool, /) -> list[tuple[int, int]]:
+        """``count`` generations as ``count`` calls of :meth:`generation` make them, each
+        one's (evaluations, cost), asked for only when no record and no tick can come
+        between them, so nothing can see the populations between."""
 
     def publish(self, t_ns: int) -> None:
         """The population computed so far becomes what ticks see (at virtual time t_ns)."""
 
     def tick(self, name: str, t_ns: int) -> None:
-        """A periodic tick (e.g. 'planner', 'snapshot') at virtual time t_ns."""
+        """A periodic tick (a name of ``ClockConfig.tick_periods_ns``) at virtual time
+        t_ns."""
 
 
 @dataclass(frozen=True)
@@ -64,8 +83,8 @@ class ClockConfig:
     frame_period_ns: int
     tick_periods_ns: dict[str, int]
     # The most virtual time one generation can cost (None: unknown). Given, the pipeline is
-    # told when no tick can fire before the next publish (most generations), which spares it
-    # a copy of the published population at every generation.
+    # told when no tick can fire before the next publish (most generations: the pipeline
+    # then needs no copy of the published population).
     max_generation_cost_ns: int | None = None
     # The most a generation can cost when it follows another with no record delivered and
     # no tick fired between them (None: max_generation_cost_ns). The generations that no
@@ -147,32 +166,37 @@ class VirtualClock:
                 if batch > 1:
                     # SYNC: a tick after these but before the frame's end sees the population
                     # published before them
-                    keep = cfg.mode is Mode.SYNC and self._tick_before(runs - i)
+                    tick_before = cfg.mode is Mode.SYNC and self._tick_before(runs - i)
                     bound = cfg.max_generation_cost_ns
-                    for evals, cost in self.pipeline.run_generations(batch, keep):
-                        self._charge(evals, cost, keep=keep, bound=bound)
+                    for evals, cost in self.pipeline.run_generations(batch, tick_before):
+                        self._charge(evals, cost, tick_before_publish=tick_before, bound=bound)
                         bound = self._later_bound
                     i += batch
                     if cfg.mode is not Mode.SYNC:
                         self.pipeline.publish(stats.now_ns)
                     continue
                 # SYNC publishes once the frame's generations are done, the others after each
-                keep = self._tick_before(runs - i if cfg.mode is Mode.SYNC else 1)
-                evals, cost = self.pipeline.generation(keep)
-                self._charge(evals, cost, keep=keep, bound=cfg.max_generation_cost_ns)
+                tick_before = self._tick_before(runs - i if cfg.mode is Mode.SYNC else 1)
+                evals, cost = self.pipeline.generation(tick_before)
+                self._charge(
+                    evals, cost, tick_before_publish=tick_before, bound=cfg.max_generation_cost_ns
+                )
                 i += 1
                 if cfg.mode is not Mode.SYNC:
                     self.pipeline.publish(stats.now_ns)
             if cfg.mode is Mode.SYNC:
                 self.pipeline.publish(stats.now_ns)
 
-    def _charge(self, evals: int, cost: int, *, keep: bool, bound: int | None) -> None:
+    def _charge(
+        self, evals: int, cost: int, *, tick_before_publish: bool, bound: int | None
+    ) -> None:
         """Account for a generation that made ``evals`` evaluations and costs ``cost`` (at
-        most ``bound`` unless it kept what was published), and fire the ticks due while it
-        ran (they see what was published before it)."""
+        most ``bound`` when the pipeline was told that no tick comes before the next
+        publish), and fire the ticks due while it ran (they see what was published before
+        it)."""
         stats = self.stats
         cost = max(1, cost)
-        if not keep and cost > (bound or 0):
+        if not tick_before_publish and cost > (bound or 0):
             msg = (
                 f"a generation cost {cost} ns of virtual time, more than the "
                 f"{bound} ns the clock was told it can cost"

@@ -67,15 +67,15 @@ def compile_footprints(obstacles: Sequence[ObstacleConfig]) -> Footprints:
         contrast = ob.texture.contrast * (LOW_TEXTURE_CONTRAST if ob.low_texture else 1.0)
         rows.append((geo, ob.height, ob.texture, contrast, not ob.sonar_absorbing))
     n = len(rows)
-    geo = np.array([r[0] for r in rows], dtype=float).reshape(n, 6)
+    table = np.array([r[0] for r in rows], dtype=float).reshape(n, 6)
     return Footprints(
-        kind=geo[:, 0].astype(np.int64),
-        cx=geo[:, 1].copy(),
-        cy=geo[:, 2].copy(),
-        cos=np.cos(geo[:, 3]),
-        sin=np.sin(geo[:, 3]),
-        hx=geo[:, 4].copy(),
-        hy=geo[:, 5].copy(),
+        kind=table[:, 0].astype(np.int64),
+        cx=table[:, 1].copy(),
+        cy=table[:, 2].copy(),
+        cos=np.cos(table[:, 3]),
+        sin=np.sin(table[:, 3]),
+        hx=table[:, 4].copy(),
+        hy=table[:, 5].copy(),
         height=np.array([r[1] for r in rows], dtype=float),
         color=np.array([r[2].color for r in rows], dtype=float).reshape(n, 3),
         feature_size=np.array([r[2].feature_size for r in rows], dtype=float),
@@ -114,7 +114,11 @@ def closest_points(fp: Footprints, x: float, y: float) -> np.ndarray:
 
 
 def ray_hits_numpy(
-    fp: Footprints, ox: float, oy: float, dx: float, dy: float
+    fp: Footprints,
+    ox: float | np.ndarray,
+    oy: float | np.ndarray,
+    dx: float | np.ndarray,
+    dy: float | np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The 2-D ray O + t·D against every footprint: (t_in, t_out, nx, ny), each (n,).
 

@@ -227,7 +227,8 @@ def _random_obstacle(
     x0, y0, x1, y1 = area
     center = (float(rng.uniform(x0, x1)), float(rng.uniform(y0, y1)))
     height = float(rng.uniform(*cl.height_range))
-    color = tuple(float(c) for c in rng.uniform(0.2, 0.9, 3))
+    r, g, b = (float(c) for c in rng.uniform(0.2, 0.9, 3))
+    color = (r, g, b)
     texture = TextureConfig(color=color, feature_size=cl.feature_size, contrast=cl.contrast)
     if rng.uniform() < cl.cylinder_fraction:
         radius = float(rng.uniform(*cl.size_range)) / 2.0

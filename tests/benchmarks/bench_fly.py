@@ -59,9 +59,10 @@ def _on_surface_share(xyz, fitness, depth, rig) -> float:
 
 
 def _fitness_figures(pair: StereoPair, rig: StereoRig) -> list[dict]:
-    """Issue 3's figure: 7×7 colour fitness evaluations per second on a 640×480 pair, for 1 M
-    flies spread uniformly over the left image with inverse depth uniform over 0.5–20 m (the
-    share that is valid, both windows inside the images, is noted)."""
+    """The fitness kernel's throughput: 7×7 colour fitness evaluations per second on a
+    640×480 pair, for 1 M flies spread uniformly over the left image with inverse depth
+    uniform over 0.5–20 m (the share that is valid, both windows inside the images, is
+    noted)."""
     from numba import get_num_threads
 
     from flylog.fly.fitness import INVALID_FITNESS
@@ -353,7 +354,7 @@ def _log_calls(log: Path, seconds: float) -> tuple[StereoRig, list[tuple[str, ob
 
 
 def _log_rhythm_figures(out_dir: Path) -> list[dict]:
-    """Issue 4's rhythm on real data: the engine's CPU time per generation (this thread's,
+    """The replay's rhythm on real data: the engine's CPU time per generation (this thread's,
     so other processes' load counts less) over the first 10 s of the reference log, every
     call the replay makes (images, sonar, odometry, steps, a snapshot per generation)."""
     from tests.benchmarks.bench_replay import reference_log

@@ -6,7 +6,7 @@ the robot moves (the right crop shifted by a disparity), with a plain shaded bac
 above the horizon, so they compress like a rendered scene (textured where the flies look,
 plain elsewhere) rather than like white noise or a flat colour. Every view is resampled
 at a sub-pixel offset, so left/right and successive frames share no exact byte runs that
-a compressor could exploit unrealistically. Until the simulator is wired in.
+a compressor could exploit unrealistically.
 """
 
 from __future__ import annotations

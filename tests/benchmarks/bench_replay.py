@@ -1,6 +1,6 @@
-"""Replay (issue 4): speed against the log's duration, peak memory, and the latency from an
-obstacle entering the cameras' view to the planner's first reaction, async versus --sync;
-and the replay's overheads outside the engine, old way against new in the same process:
+"""Replay: speed against the log's duration, peak memory, and the latency from an obstacle
+entering the cameras' view to the planner's first reaction, async versus --sync; and the
+replay's overheads outside the engine, the plain way against flylog's in the same process:
 the overlay encoding, the run log's compression, glibc's allocator while reading the log.
 
 Reference log: corridor, 640×480 @ 15 Hz, 60 s, six sonars, odometry at 50 Hz; replayed
@@ -58,7 +58,7 @@ def _log(out_dir: Path, scene: str, seconds: float) -> Path:
 
 
 def reference_log(out_dir: Path) -> Path:
-    """The reference log of issue 4 (corridor 640×480 @ 15 Hz, 60 s), made if missing."""
+    """The reference log (corridor 640×480 @ 15 Hz, 60 s), made if missing."""
     return _log(out_dir, "corridor", 60.0)
 
 
@@ -131,8 +131,8 @@ def _speed(out_dir: Path) -> list[dict]:
 
 
 def _command_seconds(log: Path, out: Path, repeats: int = 3) -> float:
-    """Best wall time of the installed ``flylog replay`` command on ``log`` (the issue's
-    options), from spawning the process to its end."""
+    """Best wall time of the installed ``flylog replay`` command on ``log`` (the
+    reference options: 10 generations per frame), from spawning the process to its end."""
     flylog = Path(sys.executable).with_name("flylog")
     args = [flylog, "replay", log, "-o", out, "--generations-per-frame", "10"]
     best = math.inf
@@ -200,7 +200,7 @@ print(cpu, after.ru_minflt - before.ru_minflt)
 
 
 def _sdk_image_annotations(uv: np.ndarray, colours: np.ndarray, stamp_ns: int) -> bytes:
-    """The overlay as it was encoded before: one SDK object per fly."""
+    """The overlay through the SDK, the reference: one SDK object per fly."""
     ts = encode.timestamp(stamp_ns)
     points = fm.PointsAnnotation(
         timestamp=ts,
@@ -248,14 +248,14 @@ def _overlay_encoding() -> dict:
         "unit": "ms per snapshot",
         "reference": "an SDK Point2 and Color per fly",
         "ratio": best["numpy"] / best["sdk"],
-        "note": f"was {best['sdk'] * 1e3:.2f} ms; "
+        "note": f"SDK {best['sdk'] * 1e3:.2f} ms; "
         f"{(best['sdk'] - best['numpy']) * snapshots_per_minute:.2f} s of main thread saved "
         "per minute of log, same bytes",
     }
 
 
 def _sdk_poses_in_frame(poses: np.ndarray, stamp_ns: int) -> bytes:
-    """The path as it was encoded before: one SDK Pose per pose."""
+    """The path through the SDK, the reference: one SDK Pose per pose."""
     half = poses[:, 2] / 2.0
     rows = zip(poses[:, 0].tolist(), poses[:, 1].tolist(), np.sin(half).tolist(),
                np.cos(half).tolist(), strict=True)  # fmt: skip
@@ -276,7 +276,7 @@ def _path_encoding() -> dict:
     steps = np.random.default_rng(1).normal(0.0, 0.05, (n, 2)).cumsum(axis=0)
     poses = np.column_stack([steps, np.arctan2(steps[:, 1], steps[:, 0])])
     same = encode.poses_in_frame(poses, t, "odom").encode() == _sdk_poses_in_frame(poses, t)
-    assert same, "the path encoder no longer writes what the SDK writes"
+    assert same, "the path encoder's bytes differ from the SDK's"
     best = _best_of(
         {
             "sdk": lambda: _sdk_poses_in_frame(poses, t),
@@ -290,7 +290,7 @@ def _path_encoding() -> dict:
         "unit": "ms per snapshot",
         "reference": "an SDK Pose, Vector3 and Quaternion per pose",
         "ratio": best["numpy"] / best["sdk"],
-        "note": f"was {best['sdk'] * 1e3:.2f} ms (on the planner's thread, holding the GIL); "
+        "note": f"SDK {best['sdk'] * 1e3:.2f} ms (on the planner's thread, holding the GIL); "
         "same bytes",
     }
 
@@ -336,7 +336,7 @@ def _run_log_compression(run: Path, out_dir: Path) -> list[dict]:
     (lz4_w, lz4_r, lz4_mb), (none_w, none_r, none_mb) = figures["LZ4"], figures["NONE"]
     return [
         {
-            "name": "run log written uncompressed (was lz4), 60 s reference run",
+            "name": "run log written uncompressed, against lz4, 60 s reference run",
             "value": none_w,
             "unit": "s CPU to write",
             "reference": "lz4",
@@ -374,7 +374,7 @@ def _reading_allocator(log: Path) -> list[dict]:
 
 
 def _mcap_sensor_messages(log: Path) -> int:
-    """Reading and decoding the sensor topics as before: mcap's reader, which copies every
+    """Reading and decoding the sensor topics the plain way: mcap's reader, which copies every
     message out of its chunk, and protobuf's parser, which copies every image's pixels."""
     factory = DecoderFactory()
     parsers: dict[int, object] = {}

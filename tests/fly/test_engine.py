@@ -57,7 +57,8 @@ def assert_same_population(a, b):
 
 
 def test_convergence_on_a_static_pair():
-    # The figure: 5000 flies, ≤ 50 generations, 640×480; measured 0.99 (seed 1).
+    # The engine's convergence target: 5000 flies, ≤ 50 generations, 640×480; measured 0.99
+    # (seed 1).
     rig = StereoRig()
     pair, depth = render(room(PANEL), rig)
     engine = FlyEngine(EngineConfig(flies=5000), rig, np.random.default_rng(1))
@@ -262,8 +263,7 @@ def test_proprioception_keeps_flies_on_surfaces_while_turning():
 def test_sonar_fusion_finds_the_near_obstacle_with_more_flies(sonar_scene):
     # Early on (2 generations), when sonar immigrants matter most. The effect is small against
     # seed noise, so it is judged over 12 seeds: measured 10 of 12 seeds better and 1.13× the
-    # flies in total (the engine before the one-pass generation: 10 of 12, 1.18×). By 6
-    # generations the advantage is gone in this scene (16 seeds: 1.03×; before: 1.00×).
+    # flies in total. By 6 generations the advantage is gone in this scene (16 seeds: 1.03×).
     # Measured with the paper's norm gradient (the horizontal one: 8 of 12 seeds better).
     pair, reading = sonar_scene
     lo, hi = np.array(POST[0]) - 0.05, np.array(POST[1]) + 0.05

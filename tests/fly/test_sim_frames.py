@@ -1,4 +1,4 @@
-"""The issue's requirements on the simulator's frames (flylog.sim.render, fixture scenes)."""
+"""What the simulator's frames must satisfy (flylog.sim.render, fixture scenes)."""
 
 import math
 from pathlib import Path
@@ -57,7 +57,7 @@ def test_proprioception_on_the_turn_scene():
     # time, by 0.015–0.040 of the flies above the median fitness (mean ≈ 0.025). The paper's
     # claim, with the paper's fitness (the norm gradient): with the default horizontal one,
     # this measure favours the flies left in place (seeds 0–2: 0.865–0.899 with
-    # proprioception, 0.943–0.949 without; see the README's known gaps).
+    # proprioception, 0.943–0.949 without; see docs/performance.md's known gaps).
     gaps = []
     for seed in range(3):
         share = {}

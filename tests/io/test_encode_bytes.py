@@ -13,7 +13,7 @@ from flylog.io import LogWriter, contract, encode, open_log
 
 
 def sdk_image_annotations(uv, colours, stamp_ns, thickness=3.0) -> bytes:
-    """The encoder as it was: one SDK object per point."""
+    """The SDK's encoding, the reference: one SDK object per point."""
     ts = encode.timestamp(stamp_ns)
     points = fm.PointsAnnotation(
         timestamp=ts,
@@ -28,7 +28,7 @@ def sdk_image_annotations(uv, colours, stamp_ns, thickness=3.0) -> bytes:
 
 
 def sdk_poses_in_frame(poses, stamp_ns, frame_id) -> bytes:
-    """The path encoder as it was: one SDK Pose per pose."""
+    """The SDK's encoding of a path, the reference: one SDK Pose per pose."""
     poses = np.asarray(poses, float)
     half = poses[:, 2] / 2.0
     rows = zip(poses[:, 0].tolist(), poses[:, 1].tolist(), np.sin(half).tolist(),

@@ -45,7 +45,7 @@ def surface_flies(
 def with_weak_flies(strong: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The strong flies plus as many weak ones (at least 10; high above, out of view): with
     the 0.5 quantile rule only strong ones are obstacle flies. (Never an empty cloud: the
-    io decoder cannot read one yet.)"""
+    io decoder does not read one.)"""
     weak = np.tile([[0.5, 0.0, 50.0]], (max(len(strong), 10), 1))
     xyz = np.concatenate([strong, weak]).astype(np.float32)
     fitness = np.concatenate([np.full(len(strong), STRONG), np.full(len(weak), WEAK)])

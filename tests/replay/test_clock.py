@@ -29,12 +29,12 @@ class Recorder:
         if isinstance(record, StereoPair):
             self.now_pair = record.stamp_ns
 
-    def generation(self, keep_published=True):
+    def generation(self, tick_before_publish):
         self.generations.append(self.now_pair)
         return self.evals, round(self.evals * 1e9 / self.evals_per_second)
 
-    def run_generations(self, count, keep_published):
-        return [self.generation(keep_published) for _ in range(count)]
+    def run_generations(self, count, tick_before_publish):
+        return [self.generation(tick_before_publish) for _ in range(count)]
 
     def publish(self, t_ns):
         self._visible = len(self.generations)
@@ -143,19 +143,19 @@ def test_incremental_advance_equals_feeding_everything():
 
 
 class Keeper(Recorder):
-    """Records whether each generation was told to keep what was published, and whether a
-    tick fired between a generation told not to and the next publish."""
+    """Records whether each generation was told a tick may come before the next publish,
+    and whether a tick fired between a generation told none comes and the next publish."""
 
     def __init__(self, **kw) -> None:
         super().__init__(**kw)
-        self.keeps: list[bool] = []
+        self.told: list[bool] = []
         self.dropped = False  # what was published is gone until the next publish
         self.bad_ticks: list[int] = []
 
-    def generation(self, keep_published=True):
-        self.keeps.append(keep_published)
-        self.dropped |= not keep_published
-        return super().generation(keep_published)
+    def generation(self, tick_before_publish):
+        self.told.append(tick_before_publish)
+        self.dropped |= not tick_before_publish
+        return super().generation(tick_before_publish)
 
     def publish(self, t_ns):
         self.dropped = False
@@ -176,7 +176,7 @@ def test_published_population_is_dropped_only_when_no_tick_can_read_it(mode, gpf
     cfg = ClockConfig(mode, gpf, 100 * MS, ticks, 2 * MS)
     run(frames(6), pipeline, cfg, 600 * MS)
     assert pipeline.bad_ticks == []
-    assert True in pipeline.keeps and False in pipeline.keeps  # the saving happens
+    assert True in pipeline.told and False in pipeline.told  # the saving happens
 
 
 def test_a_generation_costlier_than_the_bound_is_an_error():
@@ -186,10 +186,10 @@ def test_a_generation_costlier_than_the_bound_is_an_error():
         run(frames(3), pipeline, cfg, 300 * MS)
 
 
-def test_without_a_bound_every_generation_keeps_it():
+def test_without_a_bound_every_generation_is_told_a_tick_may_come():
     pipeline = Keeper()
     run(frames(3), pipeline, config(Mode.PER_FRAME, 3, {"a": 30 * MS}), 300 * MS)
-    assert pipeline.keeps and all(pipeline.keeps)
+    assert pipeline.told and all(pipeline.told)
 
 
 class Batcher(Recorder):
@@ -199,9 +199,9 @@ class Batcher(Recorder):
         super().__init__(**kw)
         self.batches: list[int] = []
 
-    def run_generations(self, count, keep_published):
+    def run_generations(self, count, tick_before_publish):
         self.batches.append(count)
-        return super().run_generations(count, keep_published)
+        return super().run_generations(count, tick_before_publish)
 
 
 @pytest.mark.parametrize("mode", [Mode.PER_FRAME, Mode.SYNC])

@@ -53,11 +53,11 @@ def test_published_flies_carry_the_pose_of_their_images_not_the_newest_odometry(
         pipeline.deliver(StereoPair(50 * MS, images, images))  # taken at 50 ms
         for r in list(readings)[4:]:  # odometry goes on to 140 ms while the engine works
             pipeline.deliver(r)
-        pipeline.generation(keep_published=False)
+        pipeline.generation(False)
         pipeline.publish(150 * MS)
         at_images = pose_at(readings, 50 * MS)
-        assert pipeline._published_pose == at_images  # what ticks map the flies with
-        assert pipeline._published_pose != readings[-1].pose
+        assert pipeline.published.pose == at_images  # what ticks map the flies with
+        assert pipeline.published.pose != readings[-1].pose
     finally:
         pipeline.close()
 
@@ -89,7 +89,7 @@ def test_the_flies_snapshot_is_in_base_link_at_the_newest_odometry(monkeypatch):
         pipeline.deliver(StereoPair(50 * MS, images, images))
         for r in list(readings)[4:]:
             pipeline.deliver(r)
-        pipeline.generation(keep_published=False)
+        pipeline.generation(False)
         pipeline.publish(150 * MS)
         scored = pipeline.engine.population.xyz.copy()
         pipeline.tick("snapshot", 150 * MS)

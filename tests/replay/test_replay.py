@@ -193,8 +193,8 @@ def _pipeline_outputs(
     planner_thread: bool, config: ReplayConfig = SMALL, *, copy_at_publish: bool = False
 ) -> tuple[list, list]:
     """Every message and table row of a replay of CORRIDOR, run through the pipeline
-    (``copy_at_publish``: as the pipeline once was, copying the population at each publish,
-    and the clock never saying that no tick can read it)."""
+    (``copy_at_publish``: the plain way, copying the population at each publish, and the
+    clock never saying that no tick can read it)."""
     from flylog.io.pairing import pair_stereo
     from flylog.replay.clock import VirtualClock
     from flylog.replay.inputs import SENSOR_TOPICS, replay_inputs
@@ -204,7 +204,7 @@ def _pipeline_outputs(
     class CopyAtPublish(FlyPipeline):
         def publish(self, t_ns: int) -> None:
             super().publish(t_ns)
-            self._published_population()  # the copy made now, not when first read
+            self.published.population()  # the copy made now, not when first read
 
     reader = open_log(CORRIDOR)
     inputs = replay_inputs(reader, goal=None)

@@ -43,7 +43,7 @@ def _turn_on_the_spot(heading: HeadingConfig) -> tuple[float, float, FlyPipeline
                 next_odom += odom_ns
             seen = renderer.render(compose(start, Pose2D(0.0, 0.0, RATE * stamp / 1e9)))
             pipeline.deliver(StereoPair(stamp, seen.left, seen.right))
-            pipeline.run_generations(60 if k == 0 else 15)
+            pipeline.run_generations(60 if k == 0 else 15, False)
             pipeline.publish(stamp)
     finally:
         pipeline.close()

@@ -1,0 +1,198 @@
+"""The planner's side of the pipeline, run as jobs of :class:`~flylog.replay.worker.OutputQueue`:
+a planner tick (obstacles in, relaxation, command, table row) and a snapshot (the flies,
+their overlay, the potential and the path, encoded as the log's messages).
+
+Each job reads only what it is given, captured at its virtual time, and the planner, which
+no other job touches: the jobs may run on a worker thread while the engine goes on."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from flylog.fly.fusion import moved_by_odometry
+from flylog.fly.population import Population
+from flylog.geometry import Pose2D, StereoRig, relative, transform_points_2d
+from flylog.io import contract, encode
+from flylog.planner import HarmonicPlanner
+from flylog.planner.obstacles import sonar_arc_points
+from flylog.replay.config import ReplayConfig
+from flylog.replay.obstacle_cache import Evidence
+from flylog.replay.overlay import fly_overlay
+from flylog.replay.worker import Outputs
+from flylog.sensors import OdomReading, SonarReading, StereoPair
+
+
+@dataclass(frozen=True)
+class Published:
+    """The newest publication, as a tick or a snapshot sees it."""
+
+    population: Population | None  # an immutable copy (None: none yet)
+    pose: Pose2D  # odometry the population is expressed at
+    image_stamp_ns: int  # stamp of the images it was scored on (-1: none yet)
+    generation: int
+    pair: StereoPair | None  # the images it was scored on (None: none yet)
+    candidates: np.ndarray | None  # the flies whose distinctness the rule reads (or None)
+
+
+@dataclass(frozen=True)
+class TickInputs:
+    """What a planner tick at ``t_ns`` sees, captured at that virtual time."""
+
+    t_ns: int
+    published: Published
+    evaluations: int  # fitness evaluations so far
+    odom: OdomReading  # the newest odometry delivered
+    sonar: tuple[SonarReading, Pose2D] | None  # the newest sonar reading, and odometry then
+
+
+@dataclass(frozen=True)
+class SnapshotInputs:
+    """What a snapshot at ``t_ns`` writes, captured at that virtual time."""
+
+    t_ns: int
+    published: Published
+    robot_pose: Pose2D  # the newest odometry
+
+
+class PlannerJobs:
+    """The planner's work for the pipeline; ``write_tf`` adds odom → base_link to each
+    snapshot, ``rows`` makes each tick's row of the per-step table."""
+
+    def __init__(
+        self,
+        config: ReplayConfig,
+        rig: StereoRig,
+        planner: HarmonicPlanner,
+        *,
+        write_tf: bool,
+        rows: bool,
+    ) -> None:
+        self.config = config
+        self.rig = rig
+        self.planner = planner
+        self._write_tf = write_tf
+        self._rows = rows
+        self._mapping_range = config.planner.mapping_range(rig.focal_px, rig.baseline)
+        self._evidence = Evidence(config.obstacles, rig, config.engine)
+
+    def warm_start(self) -> Outputs:
+        """Relax the obstacle-free field before the first tick (planner.warm_start_sweeps)."""
+        cfg = self.config.planner
+        self.planner.relax_until(cfg.relax_tolerance, cfg.warm_start_sweeps, chunk=100)
+        return Outputs([])
+
+    def tick(self, tick: TickInputs) -> Outputs:
+        """The planner's work at one tick: obstacles in, relaxation, command, table row."""
+        seen = tick.published
+        pop = seen.population
+        if pop is None:
+            obstacles = np.empty((0, 3))
+        else:
+            mask, _ = self._evidence.of(pop, seen.pair, seen.generation, seen.candidates)
+            obstacles = pop.xyz[mask]
+            in_odom = transform_points_2d(seen.pose, obstacles[:, :2])
+            self.planner.update_obstacles(
+                in_odom,
+                seen.pose,
+                self.rig.half_fov,
+                view_range=self._mapping_range,
+                sonar_xy=self._echoes(tick.sonar),
+            )
+        change = self.planner.relax()
+        pose, t_ns = tick.odom.pose, tick.t_ns
+        command = self.planner.command(pose, t_ns / 1e9)
+        status = contract.CommandStatus(command.status.value)
+        message = encode.command(command.linear, command.angular, status, t_ns)
+        messages: list[tuple[str, int, Any]] = [(contract.PLANNER_COMMAND, t_ns, message)]
+        if not self._rows:
+            return Outputs(messages, command)
+        valid = pop.fitness[pop.fitness > 0] if pop is not None else np.empty(0)
+        row = {
+            "t": t_ns / 1e9,
+            "generation": seen.generation,
+            "evaluations": tick.evaluations,
+            "valid_flies": len(valid),
+            "obstacle_flies": len(obstacles),
+            "best_fitness": float(valid.max()) if len(valid) else math.nan,
+            "median_fitness": float(np.median(valid)) if len(valid) else math.nan,
+            "image_latency": (t_ns - seen.image_stamp_ns) / 1e9
+            if seen.image_stamp_ns >= 0
+            else math.nan,
+            "odom_latency": (t_ns - tick.odom.stamp_ns) / 1e9,
+            "x": pose.x,
+            "y": pose.y,
+            "theta": pose.theta,
+            "linear": command.linear,
+            "angular": command.angular,
+            "status": status.value,
+            "potential_change": change,
+        }
+        return Outputs(messages, command, row)
+
+    def _echoes(self, sonar: tuple[SonarReading, Pose2D] | None) -> np.ndarray | None:
+        """The sonar reading's near echoes (planner.sonar_range) as arc points in odom, for
+        the planner (None: none)."""
+        reach = self.config.planner.sonar_range
+        if sonar is None or reach <= 0.0:
+            return None
+        reading, pose = sonar
+        arcs = sonar_arc_points(reading, reach, 0.5 * self.config.planner.cell_size)
+        return transform_points_2d(pose, arcs) if len(arcs) else None
+
+    def snapshot(self, snap: SnapshotInputs) -> Outputs:
+        """A snapshot's messages: the flies (with each fly's distinctness when the obstacle
+        rule reads it) in base_link at the robot's pose, their overlay and odom → base_link
+        there (when a population was published), then the planner's potential and path."""
+        t_ns, seen, robot_pose = snap.t_ns, snap.published, snap.robot_pose
+        messages: list[tuple[str, int, Any]] = []
+        pop = seen.population
+        if pop is not None:
+            distinct = None
+            if seen.candidates is not None:
+                distinct = self._evidence.of(pop, seen.pair, seen.generation, seen.candidates)[1]
+            # on the images the flies were scored on
+            uv, colours = fly_overlay(pop, self.rig, self.config.overlay_flies)
+            # The flies are expressed where the robot was when their images were taken; the
+            # cloud goes out in base_link at the snapshot's time, like every message (the
+            # metrics render the truth there).
+            xyz = pop.xyz
+            if seen.pose != robot_pose:
+                xyz = moved_by_odometry(xyz, relative(seen.pose, robot_pose))
+            cloud = encode.point_cloud(
+                xyz, pop.fitness, t_ns, contract.BASE_FRAME, pop.age, distinct=distinct
+            )
+            messages += [
+                (contract.FLIES, t_ns, cloud),
+                (contract.FLIES_OVERLAY, t_ns, encode.image_annotations(uv, colours, t_ns)),
+            ]
+            if self._write_tf:
+                transform = encode.odom_transform(robot_pose)
+                messages.append((contract.TF, t_ns, encode.frame_transforms([transform], t_ns)))
+        return Outputs(messages + self._planner_snapshot(t_ns, robot_pose))
+
+    def _planner_snapshot(self, t_ns: int, robot_pose: Pose2D) -> list[tuple[str, int, Any]]:
+        """The potential and the path the robot would follow from ``robot_pose``, now."""
+        ox, oy = self.planner.origin
+        grid = encode.grid(
+            self.planner.potential, Pose2D(ox, oy, 0.0), self.planner.cell_size, t_ns,
+            contract.ODOM_FRAME,
+        )  # fmt: skip
+        path = encode.poses_in_frame(
+            path_poses(self.planner.path(robot_pose)), t_ns, contract.ODOM_FRAME
+        )
+        return [(contract.PLANNER_POTENTIAL, t_ns, grid), (contract.PLANNER_PATH, t_ns, path)]
+
+
+def path_poses(points: np.ndarray) -> np.ndarray:
+    """(K, 2) path points → (K, 3) poses heading along the path (the last keeps the previous
+    heading)."""
+    if len(points) == 0:
+        return np.empty((0, 3))
+    d = np.diff(points, axis=0)
+    heading = np.arctan2(d[:, 1], d[:, 0]) if len(d) else np.zeros(0)
+    heading = np.append(heading, heading[-1] if len(heading) else 0.0)
+    return np.column_stack([points, heading])
