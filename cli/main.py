@@ -20,6 +20,7 @@ _COMMANDS = {
     "compare": ("compare", "compare"),
     "export": ("export", "export"),
     "experiment": ("experiment", "experiment"),
+    "import": ("import_", "import_"),
 }
 
 
