@@ -20,10 +20,11 @@ from flylog.lazy import lazy_names
 
 if TYPE_CHECKING:
     from flylog.fly.config import Backend, EngineConfig, Gradient
-    from flylog.fly.engine import FlyEngine, GenerationStats
+    from flylog.fly.engine import FlyEngine
     from flylog.fly.fitness import INVALID_FITNESS, fitness_numba, fitness_numpy
     from flylog.fly.obstacles import ObstacleFlies, obstacle_mask, obstacle_points
     from flylog.fly.population import Population, random_flies, sharing_radius
+    from flylog.fly.stats import GenerationStats
 
 # public name → the submodule defining it
 _WHERE = {
@@ -31,7 +32,7 @@ _WHERE = {
     "EngineConfig": "config",
     "Gradient": "config",
     "FlyEngine": "engine",
-    "GenerationStats": "engine",
+    "GenerationStats": "stats",
     "INVALID_FITNESS": "fitness",
     "fitness_numba": "fitness",
     "fitness_numpy": "fitness",

@@ -9,7 +9,6 @@ select the best fraction, refill with offspring and immigrants, evaluate the new
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -36,37 +35,17 @@ from flylog.fly.fusion import (
 )
 from flylog.fly.generation import generations_kernel
 from flylog.fly.neighbours import NeighbourCounter, neighbour_counts_numpy
-from flylog.fly.operators import (
-    newcomer_constants,
-    newcomers_numpy,
-    shared_fitness,
-    survivor_indices,
-)
+from flylog.fly.operators import newcomer_constants, newcomers_numpy
 from flylog.fly.population import (
     Population,
     random_flies,
     sharing_radius,
 )
 from flylog.fly.scouts import Scouting
+from flylog.fly.selection import shared_fitness, survivor_indices
+from flylog.fly.stats import GenerationStats
 from flylog.geometry import Pose2D, StereoRig
 from flylog.sensors import SonarReading, StereoPair
-
-
-@dataclass(frozen=True, slots=True)
-class GenerationStats:
-    """What one generation did; ``evaluations`` lets replay charge virtual time. The
-    population's fitness figures are :func:`flylog.fly.population.fitness_summary` of
-    :attr:`FlyEngine.population`, computed by whoever needs them (a median per generation
-    would cost more than the rest of these)."""
-
-    generation: int
-    evaluations: int
-    image_stamp_ns: int
-    survivors: int
-    offspring: int
-    immigrants: int
-    sonar_immigrants: int
-
 
 # Sonar immigrants: candidates are drawn n at a time, at most this many times.
 _SONAR_TRIES = 8

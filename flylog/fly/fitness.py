@@ -182,7 +182,7 @@ def _zssd_lanes(lflat, rflat, bl, br, stride, window, channels, scratch):  # pra
 # Flies go in blocks, in three passes: project all (and prefetch their window rows), then the
 # integer window terms, then the float fitness. Each pass's iterations are independent, so the
 # CPU overlaps one fly's long chain (divisions, loads, reductions, square roots) with the
-# next's; done fly by fly, that chain was most of the time.
+# next's; scored fly by fly, that chain is most of the time.
 _BLOCK = 64
 # The window rows of the fly this many places ahead are prefetched: random flies' rows mostly
 # miss L2, and a fly's wait then overlaps the work on the flies before it.

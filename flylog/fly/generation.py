@@ -1,10 +1,10 @@
 """One generation of the compiled engine in one call (:meth:`FlyEngine.step`, numba backend).
 
-A generation used to be four or five compiled calls with Python between them; at ~150
-generations a second of replay, their dispatch (numba types a ``numpy.random.Generator`` in
-~10 µs, and did so twice while scouting) and the Python glue around them were ~5 % of the
-engine's thread. Here the same kernels run in the same order on the same arrays, drawing the
-same random numbers: the population is the one the numpy backend makes (tests compare them).
+Why one call: at ~150 generations a second of replay, four or five compiled calls per
+generation with Python between them cost ~5 % of the engine's thread in dispatch (numba types
+a ``numpy.random.Generator`` in ~10 µs, twice while scouting) and glue. The kernels run in the
+numpy backend's order on the same arrays, drawing the same random numbers: the population is
+the one the numpy backend makes (tests compare them).
 Each step is the function named, see there:
 
 1. vision fitness of the stale flies, fused fitness of those (of every fly when asked),

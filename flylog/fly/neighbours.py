@@ -43,9 +43,9 @@ def _grid_counts(puv, pidx, m, radius, grid, ints, suv, counts):  # pragma: no c
     right and an empty row below. Two flies within R are then in the same or adjacent cells,
     and the flies a fly still has to test (each pair once) are two contiguous runs of the
     sorted flies: the rest of its cell and the next cell of its row, then the three cells
-    below, walked as one loop. Their bounds are cell starts: no search (the sweep this
-    replaces searched them, and its loop exits, mispredicted on fresh flies every generation,
-    were most of its time). ``ints`` is (4, ≥ m) integer scratch, ``suv`` (≥ m, 2) float64."""
+    below, walked as one loop. Their bounds are cell starts: no search (a sweep that searches
+    them spends most of its time in loop exits mispredicted on fresh flies every
+    generation). ``ints`` is (4, ≥ m) integer scratch, ``suv`` (≥ m, 2) float64."""
     cell, order, near, sorted_cell = ints[0], ints[1], ints[2], ints[3]
     umin, vmin, umax, vmax = np.inf, np.inf, -np.inf, -np.inf
     for t in range(m):

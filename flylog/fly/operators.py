@@ -1,4 +1,5 @@
-"""The evolutionary operators of the fly algorithm (paper §2.1.2, §2.2), one function each.
+"""The fly algorithm's breeding operators (paper §2.1.2, §2.2): mutation, crossovers and a
+generation's newcomers, one function each (selection and sharing: :mod:`flylog.fly.selection`).
 
 Every operator takes its random numbers from the ``numpy.random.Generator`` passed in.
 """
@@ -9,92 +10,9 @@ import numba
 import numpy as np
 
 from flylog.fly.fusion import sonar_immigrants_into
-from flylog.fly.sorting import median_radix, select_radix
+from flylog.fly.population import random_flies
 from flylog.geometry import StereoRig
 from flylog.geometry.kernels import RIG_SIZE, backproject, project
-
-
-def survivor_indices(shared_fitness: np.ndarray, keep: int) -> np.ndarray:
-    """Elitist, deterministic selection: the indices of the ``keep`` best flies, in index
-    order; among equal flies at the cut the lowest indices stay. Index order, not best first:
-    no sort is needed, and breeding picks parents uniformly, so their order does not matter."""
-    n = len(shared_fitness)
-    if keep >= n:
-        return np.arange(n)
-    if keep <= 0:
-        return np.empty(0, dtype=np.int64)
-    cut = np.partition(shared_fitness, n - keep)[n - keep]
-    taken = shared_fitness > cut
-    tied = np.flatnonzero(shared_fitness == cut)[: keep - int(np.count_nonzero(taken))]
-    taken[tied] = True
-    return np.flatnonzero(taken)
-
-
-@numba.njit(cache=True, nogil=True)
-def survivors_cut(score, keep, work):  # pragma: no cover - compiled
-    """(cut, ties): the ``keep`` flies :func:`survivor_indices` takes are those with
-    ``score > cut`` and the first ``ties`` with ``score == cut``; ``work`` (≥ N, contiguous)
-    is scratch. Needs 0 < keep < N."""
-    n = score.shape[0]
-    cut = select_radix(score, n - keep, work[:n].view(np.uint64))
-    above = 0
-    for i in range(n):
-        above += score[i] > cut
-    return cut, keep - above
-
-
-@numba.njit(cache=True, nogil=True)
-def survivor_indices_numba(shared_fitness, keep):  # pragma: no cover - compiled
-    """Same indices as :func:`survivor_indices`."""
-    n = shared_fitness.shape[0]
-    if keep >= n:
-        return np.arange(n)
-    if keep <= 0:
-        return np.empty(0, dtype=np.int64)
-    cut, ties = survivors_cut(shared_fitness, keep, np.empty(n))
-    out = np.empty(keep, dtype=np.int64)
-    t = 0
-    for i in range(n):
-        s = shared_fitness[i]
-        if s > cut or (s == cut and ties > 0):
-            ties -= s == cut
-            out[t] = i
-            t += 1
-    return out
-
-
-def shared_fitness(fitness: np.ndarray, counts: np.ndarray, coefficient: float) -> np.ndarray:
-    """2-D sharing: fitness − K·n·f̃, with f̃ the median of the positive fitnesses, so that K
-    is dimensionless whatever the images' contrast. Non-positive fitnesses are left alone."""
-    positive = fitness > 0
-    if not positive.any():
-        return fitness.copy()
-    scale = float(np.median(fitness[positive]))
-    return np.where(positive, fitness - coefficient * scale * counts, fitness)
-
-
-@numba.njit(cache=True, nogil=True)
-def shared_fitness_into(fitness, counts, coefficient, work, out):  # pragma: no cover - compiled
-    """:func:`shared_fitness` written into ``out`` (contiguous: also the median's scratch);
-    ``work`` (≥ N) is scratch."""
-    m = 0
-    for i in range(fitness.shape[0]):
-        work[m] = fitness[i]
-        m += fitness[i] > 0
-    if m == 0:
-        out[:] = fitness
-        return
-    step = coefficient * median_radix(work[:m], out[:m].view(np.uint64))
-    for i in range(fitness.shape[0]):
-        out[i] = fitness[i] - step * counts[i] if fitness[i] > 0 else fitness[i]
-
-
-@numba.njit(cache=True, nogil=True)
-def shared_fitness_numba(fitness, counts, coefficient):  # pragma: no cover - compiled
-    """Same values as :func:`shared_fitness`."""
-    out = np.empty_like(fitness)
-    shared_fitness_into(fitness, counts, coefficient, np.empty_like(fitness), out)
-    return out
 
 
 def mutated(
@@ -196,8 +114,6 @@ def newcomers_numpy(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Reference: (children (n_children, 3), uniform immigrants (n_uniform, 3)) drawn in the
     stream order above. A child is a mutation of one parent or one of the two crossovers."""
-    from flylog.fly.population import random_flies  # population imports this module
-
     uniform = random_flies(rng, rig, n_uniform, d_min=d_min, d_max=d_max, margin=margin)
     m = len(parents)
     which = rng.random(n_children)

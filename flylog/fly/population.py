@@ -10,7 +10,7 @@ import numpy as np
 
 from flylog.fly.fitness import INVALID_FITNESS
 from flylog.fly.neighbours import NeighbourCounter, fly_neighbour_counts_into
-from flylog.fly.operators import shared_fitness_into, survivors_cut
+from flylog.fly.selection import shared_fitness_into, survivors_cut
 from flylog.geometry import StereoRig
 
 
@@ -87,8 +87,8 @@ class Population:
         work: np.ndarray,
     ) -> int:
         """Compiled selection and gather in one pass: the ``keep`` flies
-        :func:`~flylog.fly.operators.survivor_indices` takes on the shared fitness
-        (:func:`~flylog.fly.operators.shared_fitness` with ``counts``; the fitness itself when
+        :func:`~flylog.fly.selection.survivor_indices` takes on the shared fitness
+        (:func:`~flylog.fly.selection.shared_fitness` with ``counts``; the fitness itself when
         ``counts`` is None), in index order, one generation older, then fresh flies whose
         ``xyz`` the caller writes. ``work`` is (2N,) float64 scratch. Returns ``keep``."""
         self._check_select(out, work)

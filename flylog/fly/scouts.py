@@ -1,6 +1,6 @@
 """Scouting immigrants: while the robot turns, a share of the uniform immigrants go where new
-scene content enters the view, each at the best of K candidate depths (issue 5, detection
-latency).
+scene content enters the view, each at the best of K candidate depths (it shortens the
+detection latency of what comes into view).
 
 Turning on the spot, the scene enters the left image at one edge (turning left, at the left
 edge; right, at the right edge), a strip as wide as the turn sweeps. Uniform immigrants land
@@ -12,7 +12,8 @@ candidate evaluation is returned to the caller, which charges it to the compute 
 
 The strip is what the odometry's yaw over the last ``scout_strip_frames`` image intervals
 brought into view (a pure rotation about the robot's vertical axis; the cameras' offset
-from it is neglected). Driving straight, nothing enters at an edge (the view expands from
+from it, and a tilted or rolled camera's slant of the image edge, are neglected: the strip
+is a band of columns, from the principal point and doffs). Driving straight, nothing enters at an edge (the view expands from
 its centre), so below ``scout_min_shift`` pixels of edge motion per frame nobody scouts and
 the immigrants stay uniform.
 

@@ -139,6 +139,66 @@ def _fitness_figures(pair: StereoPair, rig: StereoRig) -> list[dict]:
     ]
 
 
+def _rig_kernel_figures(pair: StereoPair, rig: StereoRig) -> list[dict]:
+    """The real camera's kernel (projection through the rig's rotation and both optical
+    centres) against the level-only kernel it generalises (tests/benchmarks/level_fitness.py),
+    same flies and run, alternated: evaluations per second, parallel and one thread; and the
+    real kernel on a tilted, rolled rig with an off-centre principal point and doffs."""
+    import dataclasses
+
+    from flylog.fly.fitness import fitness_into
+    from tests.benchmarks.level_fitness import level_constants, level_fitness
+
+    rng = np.random.default_rng(0)
+    n = 1_000_000
+    u, v = rng.uniform(3, rig.width - 4, n), rng.uniform(3, rig.height - 4, n)
+    depth = 1.0 / rng.uniform(1 / 20.0, 1 / 0.5, n)
+    xyz = np.ascontiguousarray(rig.backproject(u, v, depth))
+    h, w, c = pair.left.shape
+    rows = (pair.left.reshape(h, w * c), pair.right.reshape(h, w * c), c)
+    index = np.arange(n, dtype=np.int64)
+    real = dataclasses.replace(rig, tilt=15.0, roll=2.0, principal_point=(330.0, 230.0), doffs=4.0)
+    tilted = np.ascontiguousarray(real.backproject(u, v, depth))  # the same image spread
+    outs = [np.empty(n) for _ in range(3)]
+
+    def level(out, parallel, count=n):
+        level_fitness(*rows, xyz, index[:count], level_constants(rig), out, parallel=parallel)
+
+    def general(out, the_rig, parallel, count=n):
+        points = xyz if the_rig is rig else tilted
+        fitness_into(*rows, points, index[:count], the_rig.constants(), 7, 1.0, 1, out,
+                     parallel_min=0 if parallel else n + 1)  # fmt: skip
+
+    figures = []
+    for parallel, count, repeats in ((True, n, 7), (False, 200_000, 5)):
+        rates = {"level": math.inf, "real": math.inf, "tilted": math.inf}
+        level(outs[0], parallel, 1000)  # compile
+        general(outs[1], rig, parallel, 1000)
+        for _ in range(repeats):  # alternated, best of each: the same load on both
+            for name, call, args in (
+                ("level", level, (outs[0], parallel, count)),
+                ("real", general, (outs[1], rig, parallel, count)),
+                ("tilted", general, (outs[2], real, parallel, count)),
+            ):
+                t0 = time.perf_counter()
+                call(*args)
+                rates[name] = min(rates[name], time.perf_counter() - t0)
+        np.testing.assert_array_equal(outs[0][:count], outs[1][:count])  # same numbers
+        mode = "parallel" if parallel else "one thread"
+        figures.append(
+            {
+                "name": f"fitness evaluations, real-camera rig kernel, {mode} (level rig)",
+                "value": count / rates["real"],
+                "unit": "eval/s",
+                "reference": "level-only kernel",
+                "ratio": rates["level"] / rates["real"],
+                "note": f"tilted 15°, rolled 2°, off-centre principal point, doffs 4 px: "
+                f"{rates['level'] / rates['tilted']:.3f}× the level-only kernel",
+            }
+        )
+    return figures
+
+
 def _generation_figures(pair, depth, reading, rig) -> list[dict]:
     engine = FlyEngine(EngineConfig(flies=5000), rig, np.random.default_rng(0))
     engine.set_images(pair)
@@ -400,6 +460,7 @@ def run(out_dir: Path) -> list[dict]:
     pair, depth, reading = _frame(rig)
     return (
         _fitness_figures(pair, rig)
+        + _rig_kernel_figures(pair, rig)
         + _generation_figures(pair, depth, reading, rig)
         + _profile_figures(pair, reading, rig)
         + _log_rhythm_figures(out_dir)

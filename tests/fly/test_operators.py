@@ -19,12 +19,14 @@ from flylog.fly.operators import (
     newcomers_into,
     newcomers_numpy,
     offspring,
+)
+from flylog.fly.population import random_flies, sharing_radius
+from flylog.fly.selection import (
     shared_fitness,
     shared_fitness_numba,
     survivor_indices,
     survivor_indices_numba,
 )
-from flylog.fly.population import random_flies, sharing_radius
 from flylog.geometry import StereoRig
 
 RIG = StereoRig()

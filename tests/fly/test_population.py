@@ -2,8 +2,8 @@ import numpy as np
 import pytest
 
 from flylog.fly.fitness import INVALID_FITNESS
-from flylog.fly.operators import shared_fitness, survivor_indices
 from flylog.fly.population import Population, fitness_summary
+from flylog.fly.selection import shared_fitness, survivor_indices
 
 
 def _population(rng: np.random.Generator, n: int) -> Population:
