@@ -48,4 +48,5 @@ def import_(layout: str, path: Path, output: Path, scene: str | None, limit: int
         logs = import_dataset(layout, path, output, scene=scene, limit=limit, on_progress=update)
     for log in logs:
         size = human_bytes(log.path.stat().st_size)
-        stdout.print(f"wrote {log.path} ({log.frames} stereo pairs, {size}) from {log.source}")
+        pairs = f"{log.frames} stereo pair{'' if log.frames == 1 else 's'}"
+        stdout.print(f"wrote {log.path} ({pairs}, {size}) from {log.source}", soft_wrap=True)

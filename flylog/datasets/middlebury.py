@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Iterator
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -84,7 +85,10 @@ def scene_rig(folder: Path) -> StereoRig:
     calib = read_calibration(path)
     for key in ("cam0", "cam1", "doffs", "baseline", "width", "height"):
         if key not in calib:
-            msg = f"{path}: no '{key}=' line ({LAYOUT}; calib.txt gives cam0, cam1, doffs, baseline, width, height)"
+            msg = (
+                f"{path}: no '{key}=' line ({LAYOUT}; calib.txt gives cam0, cam1, doffs, "
+                "baseline, width and height)"
+            )
             raise LogError(msg)
     k0, k1 = _matrix(calib["cam0"], path, "cam0"), _matrix(calib["cam1"], path, "cam1")
     try:
@@ -95,7 +99,10 @@ def scene_rig(folder: Path) -> StereoRig:
         raise LogError(msg) from None
     f = float(k0[0, 0])
     if not (np.isclose(k0[1, 1], f) and np.isclose(k1[0, 0], f) and np.isclose(k1[1, 1], f)):
-        msg = f"{path}: cam0 and cam1 must share one focal length (square pixels), got {k0[0, 0]}, {k0[1, 1]}, {k1[0, 0]}, {k1[1, 1]}"
+        msg = (
+            f"{path}: cam0 and cam1 must share one focal length (square pixels), got "
+            f"{k0[0, 0]}, {k0[1, 1]}, {k1[0, 0]}, {k1[1, 1]}"
+        )
         raise LogError(msg)
     if abs(k1[0, 2] - k0[0, 2] - doffs) > _DOFFS_TOLERANCE_PX or abs(k1[1, 2] - k0[1, 2]) > 1e-6:
         msg = (
@@ -131,7 +138,10 @@ def scene_frames(folder: Path, rig: StereoRig) -> Iterator[DatasetFrame]:
     if truth.is_file():
         disparity = read_pfm(truth)
         if disparity.shape != (rig.height, rig.width):
-            msg = f"{truth}: {disparity.shape[1]}×{disparity.shape[0]} values, not the images' {rig.width}×{rig.height}"
+            msg = (
+                f"{truth}: {disparity.shape[1]}×{disparity.shape[0]} values, not the images' "
+                f"{rig.width}×{rig.height}"
+            )
             raise LogError(msg)
         disparity = np.where(np.isfinite(disparity), disparity, np.nan).astype(np.float32)
     yield DatasetFrame(0, left, right, disparity)
@@ -139,8 +149,5 @@ def scene_frames(folder: Path, rig: StereoRig) -> Iterator[DatasetFrame]:
 
 def sources(path: Path) -> list[Source]:
     """One source per scene folder at or under ``path`` (checked before anything is read)."""
-    out = []
-    for folder in scenes(path):
-        rig = scene_rig(folder)
-        out.append(Source(folder.name, folder, rig, lambda f=folder, r=rig: scene_frames(f, r)))
-    return out
+    return [Source(f.name, f, rig, partial(scene_frames, f, rig)) for f, rig in
+            ((f, scene_rig(f)) for f in scenes(path))]  # fmt: skip

@@ -27,7 +27,6 @@ from flylog.io import contract, open_log
 from flylog.metrics import tables
 from flylog.metrics.config import MetricsConfig
 from flylog.metrics.flies import f_score
-from flylog.metrics.truth import SCENE_ATTACHMENT
 from flylog.metrics.image_truth import (
     BAD1_PX,
     BAD2_PX,
@@ -36,6 +35,7 @@ from flylog.metrics.image_truth import (
     score_dense,
     score_points,
 )
+from flylog.metrics.truth import SCENE_ATTACHMENT
 
 
 def has_image_truth(log: str | Path) -> bool:
@@ -193,4 +193,3 @@ def score_image_run(run: str | Path, log: str | Path, config: MetricsConfig) -> 
         summary.update(_sgbm_dense(Path(log), sgbm, truth.stamps_ns, truth.images, rig, config))
     summary["metrics_wall_s"] = time.perf_counter() - wall0
     return MetricsResult(rows, [], summary, config)
-

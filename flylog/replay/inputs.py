@@ -92,7 +92,9 @@ def replay_inputs(reader: LogReader, *, goal: tuple[float, float] | None) -> Rep
             goal = tuple(float(v) for v in json.loads(meta["goal"]))  # type: ignore[assignment]
         elif dataset is not None:
             planner, goal = False, (start.x, start.y)
-            msg = f"{reader.path} has no goal: replaying without a planner (give one with --goal X,Y)"
+            msg = (
+                f"{reader.path} has no goal: replaying without a planner (give one with --goal X,Y)"
+            )
             warnings.warn(msg, DatasetLogWarning, stacklevel=2)
         else:
             msg = (
