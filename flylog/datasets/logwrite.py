@@ -12,15 +12,12 @@ from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
-import foxglove.messages as fm
 import numpy as np
 
 from flylog.errors import LogError
 from flylog.geometry import Pose2D, StereoRig
 from flylog.io import contract, encode
 from flylog.io.writer import LogWriter
-
-DISPARITY_ENCODING = "32FC1"
 
 
 @dataclass(frozen=True)
@@ -45,24 +42,6 @@ class Source:
     mount: bool = False  # whether rig's mount is the dataset's (else: none given)
 
 
-def disparity_image(disparity: np.ndarray, stamp_ns: int) -> fm.RawImage:
-    """A ``32FC1`` foxglove.RawImage of the left camera (little-endian float32, NaN unknown)."""
-    values = np.ascontiguousarray(disparity, dtype="<f4")
-    if values.ndim != 2:
-        msg = f"a disparity image is (H, W), got {values.shape}"
-        raise ValueError(msg)
-    height, width = values.shape
-    return fm.RawImage(
-        timestamp=encode.timestamp(stamp_ns),
-        frame_id=contract.CAMERA_FRAMES["left"],
-        width=width,
-        height=height,
-        encoding=DISPARITY_ENCODING,
-        step=width * 4,
-        data=values.tobytes(),
-    )
-
-
 def write_dataset_log(
     path: Path,
     rig: StereoRig,
@@ -85,7 +64,9 @@ def write_dataset_log(
                 frame_id = contract.CAMERA_FRAMES[side]
                 log.write(contract.IMAGE_TOPICS[side], t, encode.raw_image(image, t, frame_id))
             if frame.disparity is not None:
-                log.write(contract.TRUTH_DISPARITY, t, disparity_image(frame.disparity, t))
+                left_frame = contract.CAMERA_FRAMES["left"]
+                truth = encode.disparity_image(frame.disparity, t, left_frame)
+                log.write(contract.TRUTH_DISPARITY, t, truth)
             if frame.true_pose is not None:
                 pose = encode.pose_in_frame(frame.true_pose, t, contract.ODOM_FRAME)
                 log.write(contract.TRUTH_POSE, t, pose)
