@@ -8,7 +8,7 @@ import click
 
 from flylog.cli.common import human_bytes, progress_bar, reports_errors, stdout
 
-_FORMATS = ("middlebury",)
+_FORMATS = ("middlebury", "kitti")
 
 
 @click.command(name="import")
@@ -37,11 +37,15 @@ _FORMATS = ("middlebury",)
 )
 @reports_errors
 def import_(layout: str, path: Path, output: Path, scene: str | None, limit: int | None) -> None:
-    """Convert a stereo dataset folder in its published layout (FORMAT: middlebury, a
-    Middlebury 2014/2021 scene folder of im0.png, im1.png, calib.txt and disp0.pfm, or a
-    folder of such scenes) into flylog logs: the rectified pairs and their calibration, the
-    ground-truth disparity as /truth/disparity. Datasets that do not give the cameras' mount
-    on a robot make logs without robot geometry (no /tf, no ground plane) and without /odom."""
+    """Convert a stereo dataset folder in its published layout into flylog logs: the
+    rectified pairs and their calibration, the ground-truth disparity as /truth/disparity,
+    true poses as /truth/pose. FORMAT: middlebury (a Middlebury 2014/2021 scene folder of
+    im0.png, im1.png, calib.txt and disp0.pfm, or a folder of such scenes: one log each);
+    kitti (the 2012/2015 stereo benchmark, training/image_2, image_3, calibration and
+    disp_occ_0: one log per pair; or the odometry layout, sequences/NN with image_2,
+    image_3, calib.txt, times.txt and poses/NN.txt: one log per sequence). Datasets that
+    do not give the cameras' mount on a robot make logs without robot geometry (no /tf, no
+    ground plane); datasets without odometry, logs without /odom."""
     from flylog.datasets.run import import_dataset
 
     with progress_bar(f"import {path.name}", unit="logs") as update:

@@ -46,3 +46,71 @@ def write_middlebury_scene(folder: Path, seed: int = 0, *, truth: bool = True) -
     (folder / "calib.txt").write_text(calib_text(FOCAL, CX, CY, DOFFS, BASELINE_MM, WIDTH, HEIGHT))
     if truth:
         write_pfm(folder / "disp0.pfm", disparity)
+
+
+# ---- KITTI, written from simulated frames --------------------------------------------------
+
+
+def kitti_projections(rig) -> tuple[np.ndarray, np.ndarray]:
+    """P2, P3 of a rig with camera 0 at the pair's midpoint (P = K [I | −C])."""
+    half = rig.baseline / 2.0
+    p2, p3 = np.zeros((3, 4)), np.zeros((3, 4))
+    p2[:, :3], p3[:, :3] = rig.intrinsics("left"), rig.intrinsics("right")
+    p2[0, 3], p3[0, 3] = rig.focal_px * half, -rig.focal_px * half
+    return p2, p3
+
+
+def _kitti_line(key: str, m: np.ndarray) -> str:
+    return key + ": " + " ".join(f"{v:.6e}" for v in m.ravel()) + "\n"
+
+
+def kitti_disparity_png(disparity: np.ndarray) -> np.ndarray:
+    """KITTI's uint16 encoding: round(d · 256), 0 where unknown."""
+    known = np.isfinite(disparity) & (disparity > 0)
+    out = np.zeros(disparity.shape, dtype=np.uint16)
+    out[known] = np.clip(np.rint(disparity[known] * 256.0), 1, 65535).astype(np.uint16)
+    return out
+
+
+def write_kitti_stereo(root: Path, rig, pairs, *, calib: str = "2015") -> None:
+    """training/image_2, image_3, calib_cam_to_cam (2015) or calib (2012), disp_occ_0."""
+    training = root / "training"
+    folder = "calib_cam_to_cam" if calib == "2015" else "calib"
+    keys = ("P_rect_02", "P_rect_03") if calib == "2015" else ("P2", "P3")
+    for sub in ("image_2", "image_3", folder, "disp_occ_0"):
+        (training / sub).mkdir(parents=True, exist_ok=True)
+    p2, p3 = kitti_projections(rig)
+    for k, (left, right, disparity) in enumerate(pairs):
+        name = f"{k:06d}"
+        write_png(training / "image_2" / f"{name}_10.png", left)
+        write_png(training / "image_3" / f"{name}_10.png", right)
+        text = "calib_time: 09-Jan-2012 13:57:47\n" + _kitti_line(keys[0], p2)
+        (training / folder / f"{name}.txt").write_text(text + _kitti_line(keys[1], p3))
+        write_png(training / "disp_occ_0" / f"{name}_10.png", kitti_disparity_png(disparity))
+
+
+def kitti_pose(pose) -> np.ndarray:
+    """A planar pose (x forward, y left, θ) → camera 0's [R | t] (x right, y down, z forward)."""
+    c, s = np.cos(pose.theta), np.sin(pose.theta)
+    r = np.array([[c, 0.0, -s], [0.0, 1.0, 0.0], [s, 0.0, c]])
+    return np.column_stack([r, [-pose.y, 0.0, pose.x]])
+
+
+def write_kitti_sequence(root: Path, rig, frames, poses, seq: str = "00") -> None:
+    """sequences/NN/image_2, image_3, calib.txt, times.txt and poses/NN.txt."""
+    folder = root / "sequences" / seq
+    for sub in ("image_2", "image_3"):
+        (folder / sub).mkdir(parents=True, exist_ok=True)
+    (root / "poses").mkdir(exist_ok=True)
+    p2, p3 = kitti_projections(rig)
+    p0 = np.column_stack([rig.intrinsics("left"), np.zeros(3)])
+    lines = [_kitti_line(k, m) for k, m in (("P0", p0), ("P1", p0), ("P2", p2), ("P3", p3))]
+    (folder / "calib.txt").write_text("".join(lines))
+    times = []
+    for k, (stamp_ns, left, right) in enumerate(frames):
+        write_png(folder / "image_2" / f"{k:06d}.png", left)
+        write_png(folder / "image_3" / f"{k:06d}.png", right)
+        times.append(f"{stamp_ns / 1e9:.6e}\n")
+    (folder / "times.txt").write_text("".join(times))
+    rows = [" ".join(f"{v:.6e}" for v in kitti_pose(p).ravel()) + "\n" for p in poses]
+    (root / "poses" / f"{seq}.txt").write_text("".join(rows))
