@@ -8,7 +8,7 @@ import click
 
 from flylog.cli.common import human_bytes, progress_bar, reports_errors, stdout
 
-_FORMATS = ("middlebury", "kitti")
+_FORMATS = ("middlebury", "kitti", "euroc")
 
 
 @click.command(name="import")
@@ -43,7 +43,9 @@ def import_(layout: str, path: Path, output: Path, scene: str | None, limit: int
     im0.png, im1.png, calib.txt and disp0.pfm, or a folder of such scenes: one log each);
     kitti (the 2012/2015 stereo benchmark, training/image_2, image_3, calibration and
     disp_occ_0: one log per pair; or the odometry layout, sequences/NN with image_2,
-    image_3, calib.txt, times.txt and poses/NN.txt: one log per sequence). Datasets that
+    image_3, calib.txt, times.txt and poses/NN.txt: one log per sequence); euroc (a EuRoC
+    MAV sequence, mav0/cam0 and cam1 with data.csv, data/ and sensor.yaml, rectified with
+    OpenCV, and state_groundtruth_estimate0 as /truth/pose). Datasets that
     do not give the cameras' mount on a robot make logs without robot geometry (no /tf, no
     ground plane); datasets without odometry, logs without /odom."""
     from flylog.datasets.run import import_dataset

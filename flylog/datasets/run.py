@@ -11,7 +11,7 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
-from flylog.datasets import kitti, middlebury
+from flylog.datasets import euroc, kitti, middlebury
 from flylog.datasets.logwrite import DatasetFrame, Source, write_dataset_log
 from flylog.errors import LogError
 from flylog.io import contract
@@ -20,6 +20,7 @@ from flylog.io import contract
 LAYOUTS: dict[str, Callable[[Path], list[Source]]] = {
     "middlebury": middlebury.sources,
     "kitti": kitti.sources,
+    "euroc": euroc.sources,
 }
 
 

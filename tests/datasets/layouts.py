@@ -114,3 +114,59 @@ def write_kitti_sequence(root: Path, rig, frames, poses, seq: str = "00") -> Non
     (folder / "times.txt").write_text("".join(times))
     rows = [" ".join(f"{v:.6e}" for v in kitti_pose(p).ravel()) + "\n" for p in poses]
     (root / "poses" / f"{seq}.txt").write_text("".join(rows))
+
+
+# ---- EuRoC, written from simulated frames --------------------------------------------------
+
+
+def _yaml_list(values) -> str:
+    return "[" + ", ".join(repr(float(v)) for v in np.ravel(values)) + "]"
+
+
+def sensor_yaml(t_bs: np.ndarray, rig, distortion=(0.0, 0.0, 0.0, 0.0)) -> str:
+    return (
+        "# General sensor definitions.\nsensor_type: camera\ncomment: simulated\n\n"
+        "# Sensor extrinsics wrt. the body-frame.\nT_BS:\n  cols: 4\n  rows: 4\n"
+        f"  data: {_yaml_list(t_bs)}\n\n"
+        f"rate_hz: {rig.frame_rate}\nresolution: [{rig.width}, {rig.height}]\n"
+        "camera_model: pinhole\n"
+        f"intrinsics: {_yaml_list([rig.focal_px, rig.focal_px, rig.cx, rig.cy])} #fu, fv, cu, cv\n"
+        "distortion_model: radial-tangential\n"
+        f"distortion_coefficients: {_yaml_list(distortion)}\n"
+    )
+
+
+def camera_in_body(rig, side: str) -> np.ndarray:
+    """T_BS of a simulated camera: base_link is the body."""
+    t = np.eye(4)
+    t[:3, :3] = rig.rotation()
+    t[:3, 3] = rig.camera_position(side)
+    return t
+
+
+def write_euroc(root: Path, rig, frames, truth) -> None:
+    """mav0/cam0, cam1 (data.csv, data/, sensor.yaml) and state_groundtruth_estimate0:
+    ``frames`` (stamp ns, left, right) in grey, ``truth`` (stamp ns, Pose2D) of the body."""
+    mav = root / "mav0"
+    for k, side in enumerate(("left", "right")):
+        cam = mav / f"cam{k}"
+        (cam / "data").mkdir(parents=True)
+        (cam / "sensor.yaml").write_text(sensor_yaml(camera_in_body(rig, side), rig))
+        lines = ["#timestamp [ns],filename\n"]
+        for stamp, *images in frames:
+            image = images[k]
+            grey = image if image.ndim == 2 else np.rint(image.mean(axis=2)).astype(np.uint8)
+            write_png(cam / "data" / f"{stamp}.png", grey)
+            lines.append(f"{stamp},{stamp}.png\n")
+        (cam / "data.csv").write_text("".join(lines))
+    gt = mav / "state_groundtruth_estimate0"
+    gt.mkdir()
+    rows = ["#timestamp, p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m], q_RS_w [], q_RS_x [], "
+            "q_RS_y [], q_RS_z [], v_RS_R_x [m s^-1], v_RS_R_y [m s^-1], v_RS_R_z [m s^-1], "
+            "b_w_RS_S_x [rad s^-1], b_w_RS_S_y [rad s^-1], b_w_RS_S_z [rad s^-1], "
+            "b_a_RS_S_x [m s^-2], b_a_RS_S_y [m s^-2], b_a_RS_S_z [m s^-2]\n"]  # fmt: skip
+    for stamp, pose in truth:
+        q = (np.cos(pose.theta / 2), 0.0, 0.0, np.sin(pose.theta / 2))
+        values = [pose.x, pose.y, 0.0, *q] + [0.0] * 9
+        rows.append(f"{stamp}," + ",".join(f"{v:.9f}" for v in values) + "\n")
+    (gt / "data.csv").write_text("".join(rows))
