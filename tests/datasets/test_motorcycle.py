@@ -17,7 +17,7 @@ from flylog.metrics.score import score_run
 from flylog.replay.config import ReplayConfig, Stereo
 from flylog.replay.inputs import log_rig
 from flylog.replay.run import replay
-from tests.datasets.layouts import calib_text
+from tests.datasets.layouts import calib_text, write_kitti_stereo
 
 # Middlebury 2014 Motorcycle's calibration at the quarter size scikit-image ships (741×500).
 F, CX, CY, DOFFS, BASELINE_MM = 994.978, 311.193, 254.877, 31.086, 193.001
@@ -74,3 +74,19 @@ def test_flies_and_sgbm_on_the_real_pair_meet_their_floors(motorcycle, tmp_path)
     assert flies["coverage"] >= 0.2 and flies["disparity_error_median_px"] <= 0.5
     assert dense["bad2"] <= 0.1 and dense["coverage"] >= 0.4
     assert dense["sgbm_dense_bad2"] <= 0.1 and dense["sgbm_dense_density"] >= 0.8
+
+
+def test_the_pair_in_the_kitti_layout_gives_the_same_rig_and_truth(motorcycle, tmp_path):
+    log, disparity = motorcycle
+    rig = log_rig(open_log(log), mounted=False)
+    left, right, _ = skimage.data.stereo_motorcycle()
+    write_kitti_stereo(tmp_path / "kitti", rig, [(left, right, disparity)])
+    (kitti,) = import_dataset("kitti", tmp_path / "kitti", tmp_path / "k.mcap")
+    reader = open_log(kitti.path)
+    got = log_rig(reader, mounted=False)
+    for field in ("width", "height", "focal_px", "baseline", "cx", "cy", "doffs"):
+        assert getattr(got, field) == pytest.approx(getattr(rig, field), rel=1e-6), field
+    truth = read_disparity_truth(reader).images[0]
+    known = np.isfinite(disparity)
+    np.testing.assert_array_equal(np.isnan(truth), ~known)
+    assert np.max(np.abs(truth[known] - disparity[known])) <= 0.5 / 256 + 1e-5
