@@ -23,6 +23,7 @@ import numpy as np
 
 from flylog.baseline.config import SgbmConfig
 from flylog.config import from_mapping
+from flylog.errors import LogError
 from flylog.io import contract, open_log
 from flylog.metrics import tables
 from flylog.metrics.config import MetricsConfig
@@ -39,9 +40,16 @@ from flylog.metrics.truth import SCENE_ATTACHMENT
 
 
 def has_image_truth(log: str | Path) -> bool:
-    """The log carries ground-truth disparity images and no scene to render."""
+    """The log carries ground-truth disparity images and no scene to render. An imported
+    dataset's log without them (a KITTI odometry or EuRoC sequence) cannot be scored."""
     reader = open_log(log)
     topics = reader.topics()
+    if contract.TRUTH_DISPARITY not in topics and contract.DATASET_METADATA in reader.metadata():
+        msg = (
+            f"{log} is an imported dataset's log without {contract.TRUTH_DISPARITY}: flylog "
+            "metrics scores imported logs against ground-truth disparity images only"
+        )
+        raise LogError(msg)
     return contract.TRUTH_DISPARITY in topics and not any(
         a.name == SCENE_ATTACHMENT for a in reader.attachments()
     )

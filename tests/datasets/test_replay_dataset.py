@@ -3,6 +3,7 @@ import dataclasses
 import pytest
 
 from flylog.datasets.run import import_dataset
+from flylog.errors import LogError
 from flylog.io import contract
 from flylog.io.reader import open_log
 from flylog.metrics.score import score_run
@@ -77,3 +78,12 @@ def test_a_goal_gives_the_planner_back(plane_log, tmp_path):
         summary = replay(plane_log, tmp_path / "run.mcap", SMALL, goal=(3.0, 0.0))
     assert summary.status != "off"
     assert contract.PLANNER_COMMAND in open_log(tmp_path / "run.mcap").topics()
+
+
+def test_metrics_refuse_an_imported_log_without_ground_truth_images(tmp_path):
+    write_middlebury_scene(tmp_path / "plane", truth=False)
+    (log,) = import_dataset("middlebury", tmp_path / "plane", tmp_path / "plane.mcap")
+    with pytest.warns(DatasetLogWarning):
+        replay(log.path, tmp_path / "run.mcap", dataclasses.replace(SMALL, generations_per_frame=2))
+    with pytest.raises(LogError, match="without /truth/disparity: flylog metrics scores"):
+        score_run(tmp_path / "run.mcap", log.path)
