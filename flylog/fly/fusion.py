@@ -263,11 +263,11 @@ def sonar_immigrants(
         return np.empty((0, 3))
     if use_numba:
         out = np.empty((n, 3))
-        found = sonar_immigrants_into(
+        count = sonar_immigrants_into(
             rng, fired_arcs(reading), float(reading.half_cone), float(tolerance),
             arc_constants(rig, margin), tries, out,
         )  # fmt: skip
-        return out[:found]
+        return out[:count]
     batches: list[np.ndarray] = []
     for _ in range(tries):
         batches.append(arc_immigrants_numpy(arc_draws(rng, reading, n, rig, tolerance), reading,

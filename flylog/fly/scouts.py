@@ -13,9 +13,9 @@ candidate evaluation is returned to the caller, which charges it to the compute 
 The strip is what the odometry's yaw over the last ``scout_strip_frames`` image intervals
 brought into view (a pure rotation about the robot's vertical axis; the cameras' offset
 from it, and a tilted or rolled camera's slant of the image edge, are neglected: the strip
-is a band of columns, from the principal point and doffs). Driving straight, nothing enters at an edge (the view expands from
-its centre), so below ``scout_min_shift`` pixels of edge motion per frame nobody scouts and
-the immigrants stay uniform.
+is a band of columns, from the principal point and doffs). Driving straight, nothing enters
+at an edge (the view expands from its centre), so below ``scout_min_shift`` pixels of edge
+motion per frame nobody scouts and the immigrants stay uniform.
 
 The random stream of one call, both implementations: per scout, U for the column, U for the
 row, then K U for the offsets of its disparities in their K-ths.

@@ -1,10 +1,15 @@
 """The stereo rig in compiled kernels: one float64 array and inline projection helpers.
 
 Layout of :func:`rig_array` (indices below): focal length, left cx, cy, right cx (cx +
-doffs), the left and right optical centres in base_link, then the base_link → optical
-rotation row by row. Kernels that need more numbers append them after :data:`RIG_SIZE`.
+doffs), the left and right optical centres in base_link, the base_link → optical rotation
+row by row, and whether the rig is level (a kernel's fast path for it must give the same
+numbers: with the level rotation's zeros and ones the general arithmetic reduces exactly to
+the shortcut). Kernels that need more numbers append them after :data:`RIG_SIZE`.
 The helpers compute what :meth:`StereoRig.project` and :meth:`StereoRig.backproject`
 compute, operation for operation, so a kernel and its numpy reference agree bit for bit.
+
+numba's on-disk cache of a kernel is keyed on its own file: it does not see an edit here (a
+layout index, a helper), so after one, delete the caches (``make clean`` does).
 """
 
 from __future__ import annotations
@@ -21,14 +26,16 @@ FOCAL, CX, CY, CX_RIGHT = 0, 1, 2, 3
 LEFT = 4  # left optical centre x, y, z at 4, 5, 6
 RIGHT = 7  # right optical centre x, y, z at 7, 8, 9
 ROWS = 10  # base_link → optical rotation, row-major, at 10…18
-RIG_SIZE = 19
+LEVEL = 19  # 1.0 for a level rig (optical axes along base_link x), else 0.0
+RIG_SIZE = 20
 
 
 def rig_array(rig: StereoRig) -> np.ndarray:
     """The rig's numbers in the layout above (float64, RIG_SIZE)."""
     m, left, right = rig._frame()
+    level = 1.0 if rig.is_level else 0.0
     return np.array(
-        [rig.focal_px, rig.cx, rig.cy, rig.cx_right, *left, *right, *m[0], *m[1], *m[2]],
+        [rig.focal_px, rig.cx, rig.cy, rig.cx_right, *left, *right, *m[0], *m[1], *m[2], level],
         dtype=np.float64,
     )
 

@@ -47,6 +47,7 @@ import numpy as np
 from flylog.geometry import StereoRig
 from flylog.metrics.config import MetricsConfig
 from flylog.metrics.true_depth import relative_depth_error, view_at, views_at
+from flylog.metrics.view import nearest_visible_rotated
 
 # What other modules import from here.
 __all__ = [
@@ -159,13 +160,8 @@ def _pixels_per_obstacle(ids: np.ndarray, n_obstacles: int) -> np.ndarray:
 
 def _nearest_visible(depth: np.ndarray, ids: np.ndarray, rig: StereoRig, block: int) -> np.ndarray:
     """:func:`nearest_visible_distance` of each stacked view."""
-    if not rig.is_level:  # a column's rows are not one bearing: every pixel, back-projected
-        centres = [np.arange(n) * block + (block - 1) / 2.0 for n in depth.shape[1:]]
-        v, u = np.meshgrid(*centres, indexing="ij")
-        seen_px = (ids >= 0) & np.isfinite(depth)
-        points = rig.backproject(u, v, np.where(seen_px, depth, 1.0).astype(float))
-        far = np.where(seen_px, np.hypot(points[..., 0], points[..., 1]), np.inf)
-        return far.reshape(len(far), -1).min(axis=1, initial=np.inf)
+    if not rig.is_level:
+        return nearest_visible_rotated(depth, ids, rig, block)
     masked = np.where(ids >= 0, depth, np.inf).min(axis=1)  # (S, columns)
     seen = np.isfinite(masked)
     d = masked.astype(float)

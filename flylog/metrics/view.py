@@ -64,6 +64,20 @@ def block_rig(rig: StereoRig, block: int) -> StereoRig:
     )
 
 
+def nearest_visible_rotated(
+    depth: np.ndarray, ids: np.ndarray, rig: StereoRig, block: int
+) -> np.ndarray:
+    """(S,) ground distance (m) from base_link to the nearest obstacle pixel of each stacked
+    true view (S, H/block, W/block) of a rig that is not level: there a column's rows are
+    not one bearing, so every pixel is back-projected."""
+    centres = [np.arange(n) * block + (block - 1) / 2.0 for n in depth.shape[1:]]
+    v, u = np.meshgrid(*centres, indexing="ij")
+    seen = (ids >= 0) & np.isfinite(depth)
+    points = rig.backproject(u, v, np.where(seen, depth, 1.0).astype(float))
+    far = np.where(seen, np.hypot(points[..., 0], points[..., 1]), np.inf)
+    return far.reshape(len(far), -1).min(axis=1, initial=np.inf)
+
+
 class TrueViews:
     """Renders the true left view of a scene from true robot poses (the simulator's depth
     path, :func:`flylog.sim.depth.true_depths`)."""

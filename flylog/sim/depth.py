@@ -57,12 +57,12 @@ def _sorted_hits(
     (t_in, t_out, index), padded with (inf, -inf, -1) to the most any column crosses."""
     ox, oy, dirs = _column_rays(rig, poses)
     w = rig.width
-    t_in, t_out, _, _ = ray_hits_numpy(
+    t_in, t_out, _, _ = ray_hits_numpy(  # broadcasts over rays: arrays for its floats
         fp,
-        np.repeat(ox, w)[:, None],
-        np.repeat(oy, w)[:, None],
-        dirs[..., 0].reshape(-1, 1),
-        dirs[..., 1].reshape(-1, 1),
+        np.repeat(ox, w)[:, None],  # type: ignore[arg-type]
+        np.repeat(oy, w)[:, None],  # type: ignore[arg-type]
+        dirs[..., 0].reshape(-1, 1),  # type: ignore[arg-type]
+        dirs[..., 1].reshape(-1, 1),  # type: ignore[arg-type]
     )
     hit = t_out >= t_in
     t_in = np.where(hit, t_in, np.inf)

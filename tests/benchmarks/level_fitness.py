@@ -57,7 +57,7 @@ def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, gua
     first_r = np.empty(_BLOCK, dtype=np.int64)
     totals = np.empty(_BLOCK, dtype=np.int64)
     grads = np.empty(_BLOCK, dtype=np.int64)
-    # the projections of the block's flies, _project_valid's numbers: depth, u left, u right, v
+    # the projections of the block's flies: depth, u left, u right, v
     proj = np.empty((4, _BLOCK))
     fitness = np.empty(_BLOCK)
     scratch = np.empty((2, ncols), dtype=np.int32)  # for the windows of the lane loop

@@ -82,3 +82,16 @@ def test_tilting_down_shows_more_ground_and_less_sky(corridor):
 def test_a_view_too_far_from_the_forward_axis_is_refused():
     with pytest.raises(ConfigError, match="80°"):
         warps(dataclasses.replace(RIG, pan=80.0))
+
+
+def test_the_nearest_visible_obstacle_of_a_rotated_view_matches_the_level_shortcut(corridor):
+    from flylog.metrics.flies import _nearest_visible
+
+    poses = np.array([[0.4, 0.1, 0.05], [3.0, -0.2, 0.3]])
+    turned = dataclasses.replace(RIG, tilt=1e-9)
+    near = []
+    for rig in (RIG, turned):
+        depth, ids = true_depths(corridor.footprints, rig, poses)
+        near.append(_nearest_visible(depth, ids, rig, 1))
+    assert np.all(np.isfinite(near[0]))
+    np.testing.assert_allclose(near[1], near[0], rtol=1e-4)
