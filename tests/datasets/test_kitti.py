@@ -84,6 +84,9 @@ def test_the_odometry_layout_keeps_timing_and_poses(simulated, tmp_path):
         assert (g.x, g.y, g.theta) == pytest.approx((r.x, r.y, r.theta), abs=2e-6)
     assert log_rig(reader, mounted=False).frame_rate == pytest.approx(1.5, rel=1e-5)
     assert contract.TRUTH_DISPARITY not in reader.topics()
+    with pytest.warns(KittiPoseWarning):
+        (two,) = import_dataset("kitti", tmp_path / "odometry", tmp_path / "2.mcap", limit=2)
+    assert two.frames == 2 and open_log(two.path).topics()[contract.TRUTH_POSE].count == 2
 
 
 def test_a_folder_off_the_kitti_layouts_names_what_is_missing(simulated, tmp_path):
