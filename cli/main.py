@@ -22,6 +22,7 @@ _COMMANDS = {
     "experiment": ("experiment", "experiment"),
     "sweep": ("sweep", "sweep"),
     "report": ("report", "report"),
+    "import": ("import_", "import_"),
 }
 
 

@@ -37,6 +37,27 @@ _SHOWN = (
     ("metrics_wall_s", "metrics wall time", "s"),
 )
 
+# Against an imported dataset's ground-truth disparity (flylog.metrics.image_run).
+_IMAGE_SHOWN = (
+    ("snapshots", "fly snapshots", ""),
+    ("truth_images", "ground-truth images", ""),
+    ("scored_points", "flies scored (in view, on known truth)", ""),
+    ("precision", "precision", ""),
+    ("recall", "recall", ""),
+    ("f_score", "F-score", ""),
+    ("median_depth_error", "median relative depth error", ""),
+    ("disparity_error_median_px", "median disparity error", "px"),
+    ("bad1", "bad1 (share off by > 1 px)", ""),
+    ("bad2", "bad2 (share off by > 2 px)", ""),
+    ("coverage", "coverage (cells with a fly within 2 px)", ""),
+    ("sgbm_dense_error_median_px", "SGBM dense map: median error", "px"),
+    ("sgbm_dense_bad2", "SGBM dense map: bad2", ""),
+    ("sgbm_dense_density", "SGBM dense map: share of truth matched", ""),
+    ("generations", "generations", ""),
+    ("wall_s", "run wall time", "s"),
+    ("metrics_wall_s", "metrics wall time", "s"),
+)
+
 
 def _fmt(value: Any) -> str:
     if value is None or (isinstance(value, float) and math.isnan(value)):
@@ -92,7 +113,10 @@ def metrics(
 ) -> None:
     """Score RUN (a `flylog replay` output or a closed-loop log) against the ground truth
     of its sensor log: fly precision/recall, obstacle detection latency, the robot's path,
-    clearance, collisions and odometric drift. Writes Parquet tables; prints the summary."""
+    clearance, collisions and odometric drift. On an imported dataset's log (ground-truth
+    disparity images, no scene): precision/recall, disparity error, bad1, bad2 and coverage
+    of the flies (or SGBM's points, and its dense map). Writes Parquet tables; prints the
+    summary."""
     from rich.table import Table
 
     from flylog.config import from_mapping, read_toml, replace_dotted
@@ -124,7 +148,8 @@ def metrics(
     table.add_column("metric")
     table.add_column("value", justify="right")
     table.add_column("unit")
-    for key, label, unit in _SHOWN:
+    shown = _SHOWN if result.summary.get("truth_images") is None else _IMAGE_SHOWN
+    for key, label, unit in shown:
         table.add_row(label, _fmt(result.summary[key]), unit)
     stdout.print(table)
     stdout.print("wrote " + ", ".join(str(p) for p in paths))

@@ -59,7 +59,8 @@ from flylog.cli.main import freeze_imported_objects
     default=None,
     metavar="N",
     help="Run exactly N generations per stereo pair (the paper's experiments use 1); 0 runs "
-    "asynchronously, generations back to back on the newest data. [default: 0]",
+    "asynchronously, generations back to back on the newest data (a one-frame log, an "
+    "imported pair: one frame period of virtual compute on it). [default: 0]",
 )
 @click.option(
     "--evals-per-second",

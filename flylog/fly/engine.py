@@ -210,7 +210,7 @@ class FlyEngine:
         # Scouting immigrants (flylog.fly.scouts): while turning, the last uniform immigrants
         # move to where new content enters the view; their candidates' evaluations are
         # charged here, the chosen flies are scored with the other newcomers.
-        assert self._right is not None  # set with self._left
+        assert self._left is not None and self._right is not None  # set by the first pair
         evaluations += self._scouts.place(
             self._rng, nxt.xyz, n_immigrants, n_sonar, self._left, self._right
         )

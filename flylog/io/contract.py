@@ -23,6 +23,9 @@ ODOM = "/odom"
 TF = "/tf"
 TRUTH_POSE = "/truth/pose"
 TRUTH_SCENE = "/truth/scene"
+# An imported dataset's ground truth: the left image's disparity (px, uL − uR, the rig's
+# convention: f·B/Z − doffs), 32FC1, NaN where the dataset gives none.
+TRUTH_DISPARITY = "/truth/disparity"
 FLIES = "/flies"
 FLIES_OVERLAY = "/flies/overlay"
 PLANNER_POTENTIAL = "/planner/potential"
@@ -47,6 +50,12 @@ REPLAY_METADATA = "flylog.replay"  # effective configuration and counts of a run
 # in log-time order. Logs without it (older or unfinished ones) are read from the topics.
 TRAJECTORIES_METADATA = "flylog.trajectories"
 TRAJECTORIES_VERSION = "1"
+# What ``flylog import`` read (keys: "format", "source", "scene", "frames") and the robot
+# geometry the dataset gives: "mount" is "none" when the dataset does not say where the
+# cameras sit on a robot. Such a log has no /tf, no /odom and no ground plane: replay places
+# the cameras' midpoint at base_link's origin, level, and the obstacle rule has no ground test.
+DATASET_METADATA = "flylog.dataset"
+MOUNT_NONE = "none"
 
 # ---- frames ------------------------------------------------------------------------------
 
@@ -89,6 +98,7 @@ TOPIC_SCHEMAS: MappingProxyType[str, str] = MappingProxyType(
         TF: FRAME_TRANSFORMS,
         TRUTH_POSE: POSE_IN_FRAME,
         TRUTH_SCENE: SCENE_UPDATE,
+        TRUTH_DISPARITY: RAW_IMAGE,
         FLIES: POINT_CLOUD,
         FLIES_OVERLAY: IMAGE_ANNOTATIONS,
         PLANNER_POTENTIAL: GRID,

@@ -36,6 +36,7 @@ from flylog.io.records import (
 from flylog.sensors import OdomReading, SonarReading
 
 _CHANNELS = MappingProxyType({"rgb8": 3, "bgr8": 3, "mono8": 1})
+FLOAT_IMAGE = "32FC1"  # one float32 channel: /truth/disparity
 # PackedElementField numeric types → numpy little-endian dtypes (0 = unknown).
 _NUMERIC = MappingProxyType(
     {1: "u1", 2: "i1", 3: "<u2", 4: "<i2", 5: "<u4", 6: "<i4", 7: "<f4", 8: "<f8"}
@@ -60,7 +61,14 @@ def _planar(pose: Any) -> Pose2D:
 
 def image(msg: Any) -> np.ndarray:
     """RawImage → (H, W, 3) RGB or (H, W) uint8, a read-only view of the message bytes
-    ("bgr8" comes back as RGB through a reversed view)."""
+    ("bgr8" comes back as RGB through a reversed view); "32FC1" (ground-truth disparity,
+    little endian) → (H, W) float32."""
+    if msg.encoding == FLOAT_IMAGE:
+        h, w, step = msg.height, msg.width, msg.step
+        if step < 4 * w or len(msg.data) < step * (h - 1) + 4 * w:
+            msg_ = f"image of {w}×{h} 32FC1 has step {step} and only {len(msg.data)} bytes"
+            raise LogError(msg_)
+        return np.ndarray((h, w), dtype="<f4", buffer=msg.data, strides=(step, 4))
     channels = _CHANNELS.get(msg.encoding)
     if channels is None:
         msg_ = f"image encoding '{msg.encoding}' is not supported (rgb8, bgr8, mono8 are)"

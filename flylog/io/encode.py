@@ -77,6 +77,24 @@ def raw_image(image: np.ndarray, stamp_ns: int, frame_id: str) -> fm.RawImage:
     )
 
 
+def disparity_image(disparity: np.ndarray, stamp_ns: int, frame_id: str) -> fm.RawImage:
+    """(H, W) values (a ground-truth disparity, NaN unknown) → "32FC1", little endian."""
+    values = np.ascontiguousarray(disparity, dtype="<f4")
+    if values.ndim != 2:
+        msg = f"a disparity image is (H, W), got {values.shape}"
+        raise ValueError(msg)
+    height, width = values.shape
+    return fm.RawImage(
+        timestamp=timestamp(stamp_ns),
+        frame_id=frame_id,
+        width=width,
+        height=height,
+        encoding="32FC1",
+        step=width * 4,
+        data=values.tobytes(),
+    )
+
+
 def camera_calibration(rig: StereoRig, side: str, stamp_ns: int) -> fm.CameraCalibration:
     """The rectified calibration of one camera: no distortion, R = I, the left camera as
     the stereo reference (the right P carries −fx·baseline)."""

@@ -63,6 +63,16 @@ _BATCH = 64
 _BATCH_PIXELS = 1 << 22
 
 
+# Columns of runs scored against ground-truth images (flylog.metrics.image_run): NaN here.
+_IMAGE_COLUMNS = ("disparity_error_median_px", "bad1", "bad2", "coverage")
+_DENSE_COLUMNS = (
+    "sgbm_dense_error_median_px",
+    "sgbm_dense_bad1",
+    "sgbm_dense_bad2",
+    "sgbm_dense_density",
+)
+
+
 @dataclass(frozen=True)
 class RunFacts:
     """What a run file says about itself (its ``flylog.replay`` metadata)."""
@@ -148,6 +158,7 @@ def _snapshot_row(t_ns: int, t0_ns: int, pose: np.ndarray, score: Any) -> dict[s
         "nearest_true_m": math.nan,  # filled in for all snapshots at once
         "nearest_visible_m": score.nearest_visible,
         "nearest_detected_m": score.nearest_detected,
+        **dict.fromkeys(_IMAGE_COLUMNS, math.nan),
     }
 
 
@@ -185,11 +196,18 @@ def score_run(
     on_progress: Callable[[float, float], None] | None = None,
 ) -> MetricsResult:
     """Score ``run`` against the ground truth of the sensor log ``log`` (may be the same
-    file). ``on_progress(done, total)`` reports progress in seconds of log time."""
+    file): its scene, or its ground-truth disparity images (an imported dataset's log,
+    :mod:`flylog.metrics.image_run`). ``on_progress(done, total)`` reports progress in
+    seconds of log time."""
+    from flylog.metrics.image_run import has_image_truth, score_image_run
+
     wall0 = time.perf_counter()
     reader = open_log(run)
     replayed = reader.metadata().get(contract.REPLAY_METADATA, {})
     fingerprint = check_run_log(run, log, replayed)  # before any work: the right log?
+    if has_image_truth(log):
+        result: MetricsResult = score_image_run(run, log, config)
+        return result
     provenance = {
         "log_fingerprint": fingerprint,
         "run_config": run_config_digest(replayed),
@@ -358,6 +376,9 @@ def _scored(
         "wall_s": math.nan if facts.wall_seconds is None else facts.wall_seconds,
         "log_duration_s": math.nan if facts.log_duration is None else facts.log_duration,
         "metrics_wall_s": time.perf_counter() - wall0,
+        "truth_images": None,
+        "scored_points": None,
+        **dict.fromkeys(_IMAGE_COLUMNS + _DENSE_COLUMNS, math.nan),
     }
     return MetricsResult(rows, obstacle_rows, summary, config)
 

@@ -47,6 +47,11 @@ SNAPSHOT_COLUMNS = (
     Column("nearest_true_m", _F, "m", "2-D distance from the robot to the nearest obstacle"),
     Column("nearest_visible_m", _F, "m", "... to the nearest obstacle seen by the left camera"),
     Column("nearest_detected_m", _F, "m", "... to the nearest obstacle fly"),
+    # against a ground-truth disparity image (flylog.metrics.image_truth); null for scenes
+    Column("disparity_error_median_px", _F, "px", "median |disparity - true| of scored flies"),
+    Column("bad1", _F, "", "share of the scored flies off by more than 1 px of disparity"),
+    Column("bad2", _F, "", "share of the scored flies off by more than 2 px of disparity"),
+    Column("coverage", _F, "", "share of ground-truth cells holding a fly within 2 px"),
 )
 
 SUMMARY_COLUMNS = (
@@ -83,6 +88,17 @@ SUMMARY_COLUMNS = (
     Column("wall_s", _F, "s", "wall time of the run"),
     Column("log_duration_s", _F, "s", "log time the run covered"),
     Column("metrics_wall_s", _F, "s", "wall time of flylog metrics itself"),
+    # against ground-truth disparity images (flylog.metrics.image_truth); null for scenes
+    Column("truth_images", _I, "", "ground-truth disparity images of the log"),
+    Column("scored_points", _I, "", "flies (sgbm: points) in view on known ground truth"),
+    Column("disparity_error_median_px", _F, "px", "median |disparity - true| of scored flies"),
+    Column("bad1", _F, "", "share of the scored flies off by more than 1 px of disparity"),
+    Column("bad2", _F, "", "share of the scored flies off by more than 2 px of disparity"),
+    Column("coverage", _F, "", "share of ground-truth cells holding a fly within 2 px"),
+    Column("sgbm_dense_error_median_px", _F, "px", "sgbm runs: the dense map's median error"),
+    Column("sgbm_dense_bad1", _F, "", "sgbm runs: share of matched truth pixels off by > 1 px"),
+    Column("sgbm_dense_bad2", _F, "", "sgbm runs: share of matched truth pixels off by > 2 px"),
+    Column("sgbm_dense_density", _F, "", "sgbm runs: share of truth pixels the map matched"),
 )
 
 OBSTACLE_COLUMNS = (

@@ -1,5 +1,14 @@
 """What replay needs to know about a log before streaming it, from the contract's sensor
-topics only (never ``/truth/``): the stereo rig, the frame period, the start and the goal."""
+topics only (never ``/truth/``): the stereo rig, the frame period, the start and the goal.
+
+An imported dataset's log (``flylog.dataset`` metadata) may lack what a robot gives: without
+``/odom`` replay starts at the odometric origin and runs without proprioception; with
+``mount = "none"`` (no ``/tf``) the cameras' midpoint sits at base_link's origin, level, and
+there is no ground plane (the obstacle rule's ground test is off); without ``--goal`` and a
+goal in the log there is no planner. Each of these warns. A log of one stereo pair lasts one
+frame period from its stamp, so the default asynchronous replay gives the engine one frame
+period of virtual compute on it (``evals_per_second`` / ``frame_rate`` fitness evaluations).
+"""
 
 from __future__ import annotations
 
@@ -23,8 +32,6 @@ REQUIRED_TOPICS = (
     contract.RIGHT_IMAGE,
     contract.LEFT_CALIBRATION,
     contract.RIGHT_CALIBRATION,
-    contract.ODOM,
-    contract.TF,
 )
 
 
@@ -32,20 +39,31 @@ class NoSonarWarning(UserWarning):
     """The log has no /sonar topic: the engine runs without sonar fusion."""
 
 
+class DatasetLogWarning(UserWarning):
+    """An imported dataset's log lacks odometry, a robot mount or a goal: replay runs
+    without proprioception, without the ground test or without a planner."""
+
+
 @dataclass(frozen=True)
 class ReplayInputs:
     rig: StereoRig
     frame_period_ns: int
     start: Pose2D  # first odometric pose
-    goal: tuple[float, float]
+    goal: tuple[float, float]  # (start's x, y) when there is no planner
     start_ns: int
     end_ns: int
     has_sonar: bool
+    has_ground: bool = True  # the rig's mount is known: z = 0 is the ground
+    has_planner: bool = True  # a goal was given or recorded
+    frames: int = 0  # stereo pairs in the log
 
 
 def replay_inputs(reader: LogReader, *, goal: tuple[float, float] | None) -> ReplayInputs:
     """Read the rig (calibration + static transforms), timing, start and goal of a log."""
-    require_topics(reader, REQUIRED_TOPICS)
+    dataset = reader.metadata().get(contract.DATASET_METADATA)
+    # a robot's log has odometry and the cameras' mount; a dataset's may have neither
+    robot = () if dataset is not None else (contract.ODOM, contract.TF)
+    require_topics(reader, REQUIRED_TOPICS + robot)
     topics = reader.topics()
     has_sonar = contract.SONAR in topics
     if has_sonar:
@@ -53,37 +71,65 @@ def replay_inputs(reader: LogReader, *, goal: tuple[float, float] | None) -> Rep
     else:
         msg = f"{reader.path} has no {contract.SONAR} topic: replaying without sonar fusion"
         warnings.warn(msg, NoSonarWarning, stacklevel=2)
-    rig = _rig(reader)
-    first_odom = next(iter(reader.messages([contract.ODOM]))).value
+    no_mount = dataset is not None and dataset.get("mount") == contract.MOUNT_NONE
+    rig = log_rig(reader, mounted=not no_mount)
+    if no_mount:
+        msg = (
+            f"{reader.path} gives no robot geometry (the dataset has no camera mount): the "
+            f"cameras sit at base_link's origin, level, and the obstacle rule has no ground test"
+        )
+        warnings.warn(msg, DatasetLogWarning, stacklevel=2)
+    if contract.ODOM in topics:
+        require_topics(reader, [contract.ODOM])
+        start = next(iter(reader.messages([contract.ODOM]))).value.pose
+    else:
+        start = Pose2D(0.0, 0.0, 0.0)
+        msg = f"{reader.path} has no {contract.ODOM} topic: replaying without proprioception"
+        warnings.warn(msg, DatasetLogWarning, stacklevel=2)
+    planner = True
     if goal is None:
         meta = reader.metadata().get(contract.SIMULATION_METADATA, {})
-        if "goal" not in meta:
+        if "goal" in meta:
+            goal = tuple(float(v) for v in json.loads(meta["goal"]))  # type: ignore[assignment]
+        elif dataset is not None:
+            planner, goal = False, (start.x, start.y)
+            msg = (
+                f"{reader.path} has no goal: replaying without a planner (give one with --goal X,Y)"
+            )
+            warnings.warn(msg, DatasetLogWarning, stacklevel=2)
+        else:
             msg = (
                 f"{reader.path} does not say where the goal is (no 'goal' in its "
                 f"flylog.simulation metadata): the goal must be given"
             )
             raise LogError(msg, parameter="goal")
-        goal = tuple(float(v) for v in json.loads(meta["goal"]))  # type: ignore[assignment]
     assert goal is not None
     if len(goal) != 2 or not all(math.isfinite(v) for v in goal):
         msg = f"the goal must be two finite coordinates x, y in metres, got {list(goal)}"
         raise LogError(msg, parameter="goal")
+    frames = topics[contract.LEFT_IMAGE].count
+    period = round(1e9 / rig.frame_rate)
+    end_ns = reader.end_ns if frames > 1 else reader.start_ns + period
     return ReplayInputs(
         rig=rig,
-        frame_period_ns=round(1e9 / rig.frame_rate),
-        start=first_odom.pose,
+        frame_period_ns=period,
+        start=start,
         goal=(float(goal[0]), float(goal[1])),
         start_ns=reader.start_ns,
-        end_ns=reader.end_ns,
+        end_ns=end_ns,
         has_sonar=has_sonar,
+        has_ground=not no_mount,
+        has_planner=planner,
+        frames=frames,
     )
 
 
-def _rig(reader: LogReader) -> StereoRig:
+def log_rig(reader: LogReader, *, mounted: bool = True) -> StereoRig:
     """The rig from the first calibrations and the static base_link → camera transforms:
     focal length and principal point from the left K, the baseline from the right P
     (−fx·B), doffs from the right P's cx minus the left's, the mount (position and rotation)
-    from the two cameras' transforms."""
+    from the two cameras' transforms; not ``mounted``: none (midpoint at base_link's origin,
+    optical axes along x)."""
     calib = {}
     for side, topic in contract.CALIBRATION_TOPICS.items():
         calib[side] = next(iter(reader.messages([topic]))).value
@@ -101,6 +147,23 @@ def _rig(reader: LogReader) -> StereoRig:
     principal = None if (cx, cy) == centre else (cx, cy)
     doffs = float(right.P[0, 2]) - float(left.P[0, 2])
     baseline = -float(right.P[0, 3]) / fx
+    n = reader.topics()[contract.LEFT_IMAGE].count
+    span = reader.end_ns - reader.start_ns
+    frame_rate = 1e9 * (n - 1) / span if n > 1 and span > 0 else 15.0
+    if not mounted:
+        return StereoRig(
+            width=left.width,
+            height=left.height,
+            focal_px=fx,
+            baseline=baseline,
+            mount_height=0.0,
+            mount_x=0.0,
+            mount_y=0.0,
+            principal_point=principal,
+            doffs=doffs,
+            frame_rate=frame_rate,
+        )
+    require_topics(reader, [contract.TF])
     mounts: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     for m in reader.messages([contract.TF]):
         for t in m.value:
@@ -115,9 +178,6 @@ def _rig(reader: LogReader) -> StereoRig:
         )
         raise LogError(msg)
     (pl, rl), (pr, rr) = (mounts[contract.CAMERA_FRAMES[s]] for s in ("left", "right"))
-    n = reader.topics()[contract.LEFT_IMAGE].count
-    span = reader.end_ns - reader.start_ns
-    frame_rate = 1e9 * (n - 1) / span if n > 1 and span > 0 else 15.0
     # rectified: one orientation, the right optical centre B along the left camera's x axis
     along = pl + baseline * rl[:, 0]
     if baseline <= 0 or not np.allclose(along, pr, rtol=0.0, atol=1e-3 * max(baseline, 1e-3)):

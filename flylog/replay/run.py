@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import json
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -23,7 +25,6 @@ from flylog.replay.source import (
     PLANNER_OFF,
     READ_AHEAD_MESSAGES,
     open_source,
-    planner_off_row,
     planner_off_write,
 )
 from flylog.ros2.config import BagOptions
@@ -71,7 +72,7 @@ class ReplaySummary:
     generations: int
     evaluations: int
     snapshots: int
-    status: str  # the planner's last status ("off" without a goal)
+    status: str  # the planner's last status ("off": no planner)
     stereo: str  # the engine: flies or sgbm
     unpaired: int = 0  # images dropped for want of a partner (ROS 2 bags)
 
@@ -81,15 +82,20 @@ def table_path(output: Path) -> Path:
     return output.with_suffix(".parquet")
 
 
-def clock_config(config: ReplayConfig, frame_period_ns: int) -> ClockConfig:
+def clock_config(
+    config: ReplayConfig, frame_period_ns: int, *, planner: bool = True
+) -> ClockConfig:
+    ticks = {
+        PLANNER_TICK: round(1e9 / config.planner.tick_rate),
+        SNAPSHOT_TICK: round(1e9 / config.snapshot_rate),
+    }
+    if not planner:
+        del ticks[PLANNER_TICK]
     return ClockConfig(
         mode=config.mode,
         generations_per_frame=config.generations_per_cycle,
         frame_period_ns=frame_period_ns,
-        tick_periods_ns={
-            PLANNER_TICK: round(1e9 / config.planner.tick_rate),
-            SNAPSHOT_TICK: round(1e9 / config.snapshot_rate),
-        },
+        tick_periods_ns=ticks,
         # SGBM's cost is fixed; the first generation after a stereo pair also pays for the
         # heading's measurement
         max_generation_cost_ns=config.generation_cost_ns(
@@ -100,6 +106,18 @@ def clock_config(config: ReplayConfig, frame_period_ns: int) -> ClockConfig:
         # no stale fly and no distinctness charged (that comes with the first after a tick)
         max_later_generation_cost_ns=config.generation_cost_ns(config.engine.max_later_evaluations),
     )
+
+
+def _without_robot(config: ReplayConfig, *, ground: bool, planner: bool) -> ReplayConfig:
+    """The configuration the pipeline runs: without a ground plane the obstacle rule keeps
+    flies at any height; without a planner the potential needs no warm start."""
+    if not ground:
+        rule = dataclasses.replace(config.obstacles, ground_margin=-math.inf)
+        config = dataclasses.replace(config, obstacles=rule)
+    if not planner:
+        grid = dataclasses.replace(config.planner, warm_start_sweeps=0)
+        config = dataclasses.replace(config, planner=grid)
+    return config
 
 
 def replay(
@@ -129,6 +147,7 @@ def replay(
     duration = (inputs.end_ns - inputs.start_ns) / 1e9
     check_sampling_rates(config, inputs.rig.frame_rate, source=f"the log {log}")
     replay_estimate(config, inputs.rig, duration).check(limits)
+    engine_config = _without_robot(config, ground=inputs.has_ground, planner=inputs.has_planner)
     existed = table.exists()
     try:
         with (
@@ -136,16 +155,19 @@ def replay(
             TableWriter(table, STEP_COLUMNS) as rows,
         ):
             pipeline = FlyPipeline(
-                config,
+                engine_config,
                 inputs.rig,
                 inputs.start,
                 inputs.goal,
                 out.write if source.planner else planner_off_write(out.write),
-                on_row=rows.append if source.planner else planner_off_row(rows.append),
+                on_row=rows.append,
                 planner_thread=True,
             )
             try:
-                clock = VirtualClock(pipeline, clock_config(config, inputs.frame_period_ns))
+                clock = VirtualClock(
+                    pipeline,
+                    clock_config(config, inputs.frame_period_ns, planner=inputs.has_planner),
+                )
                 reported_ns = inputs.start_ns
                 for message in source.records:
                     clock.feed(message.value)
@@ -153,6 +175,9 @@ def replay(
                         on_progress((message.log_time_ns - inputs.start_ns) / 1e9, duration)
                         reported_ns = message.log_time_ns + PROGRESS_STEP_NS
                 stats = clock.finish(inputs.end_ns)
+                if inputs.frames == 1:
+                    # the population after all the generations made on the one pair
+                    pipeline.tick(SNAPSHOT_TICK, max(stats.now_ns, inputs.end_ns + 1))
                 if on_progress is not None:
                     on_progress(duration, duration)
                 pipeline.flush()
@@ -171,6 +196,8 @@ def replay(
                     "frames": str(stats.frames),
                     "wall_seconds": f"{wall:.3f}",
                     "log_duration": f"{duration:.3f}",
+                    "ground_test": json.dumps(inputs.has_ground),
+                    "planner": json.dumps(inputs.has_planner),
                 },
             )
     except BaseException:

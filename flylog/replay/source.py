@@ -52,7 +52,7 @@ def open_source(
         reader = open_log(log)
         inputs = replay_inputs(reader, goal=goal)
         stream = pair_stereo(reader.messages(SENSOR_TOPICS, read_ahead=READ_AHEAD_MESSAGES))
-        return ReplaySource(inputs, stream, True, lambda: 0)
+        return ReplaySource(inputs, stream, inputs.has_planner, lambda: 0)
     from flylog.ros2.source import BagSource
 
     source = BagSource(log, bag or BagOptions())
@@ -72,6 +72,7 @@ def open_source(
         start_ns=source.bag.start_ns,
         end_ns=source.bag.end_ns,
         has_sonar=bool(source.roles.sonars),
+        has_planner=goal is not None,
     )
     return ReplaySource(inputs, source.records(), goal is not None, lambda: source.unpaired)
 
@@ -82,15 +83,5 @@ def planner_off_write(write: Callable[[str, int, Any], None]) -> Callable[[str, 
     def kept(topic: str, t_ns: int, message: Any) -> None:
         if not topic.startswith(PLANNER_PREFIX):
             write(topic, t_ns, message)
-
-    return kept
-
-
-def planner_off_row(append: Callable[[dict[str, Any]], None]) -> Callable[[dict[str, Any]], None]:
-    """``append`` of table rows whose planner columns say the planner is off."""
-
-    def kept(row: dict[str, Any]) -> None:
-        append({**row, "linear": 0.0, "angular": 0.0, "status": PLANNER_OFF,
-                "potential_change": float("nan")})  # fmt: skip
 
     return kept

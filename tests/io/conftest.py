@@ -79,6 +79,12 @@ def write_sample(path: Path, *, frames: int = 6, compression: str = "zstd", **kw
             log.write(contract.RIGHT_IMAGE, t, encode.raw_image(right, t, "camera_right"))
             sample.add(contract.LEFT_IMAGE, t, left)
             sample.add(contract.RIGHT_IMAGE, t, right)
+            disparity = rng.uniform(0, 40, (RIG.height, RIG.width)).astype(np.float32)
+            disparity[0, :3] = np.nan
+            log.write(
+                contract.TRUTH_DISPARITY, t, encode.disparity_image(disparity, t, "camera_left")
+            )
+            sample.add(contract.TRUTH_DISPARITY, t, disparity)
             truth = Pose2D(0.011 * k, -0.019 * k, 0.41 * k)
             log.write(contract.TRUTH_POSE, t, encode.pose_in_frame(truth, t, contract.ODOM_FRAME))
             sample.add(contract.TRUTH_POSE, t, truth)

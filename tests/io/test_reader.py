@@ -94,7 +94,7 @@ def read_all(path: Path) -> tuple[list[LogMessage], list[warnings.WarningMessage
 
 def same_values(a: LogMessage, b: LogMessage) -> bool:
     if isinstance(a.value, np.ndarray):
-        return np.array_equal(a.value, b.value)
+        return np.array_equal(a.value, b.value, equal_nan=a.value.dtype.kind == "f")
     if isinstance(a.value, tuple) and hasattr(a.value, "xyz"):
         return np.array_equal(a.value.xyz, b.value.xyz)
     if hasattr(a.value, "ranges"):

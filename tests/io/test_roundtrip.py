@@ -45,6 +45,16 @@ def test_images_round_trip_exactly(read_back):
             np.testing.assert_array_equal(m.value, image)
 
 
+def test_ground_truth_disparity_round_trips_exactly_with_its_nans(read_back):
+    sample, got = read_back
+    pairs = zip(
+        got[contract.TRUTH_DISPARITY], sample.written[contract.TRUTH_DISPARITY], strict=True
+    )
+    for m, (_, disparity) in pairs:
+        assert m.value.dtype == np.float32 and m.schema == contract.RAW_IMAGE
+        np.testing.assert_array_equal(m.value, disparity)  # NaNs where they were
+
+
 def test_calibration_round_trips_with_right_p_carrying_baseline(read_back):
     _, got = read_back
     for side in ("left", "right"):
