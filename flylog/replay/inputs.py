@@ -12,7 +12,8 @@ import numpy as np
 
 from flylog.errors import LogError
 from flylog.geometry import Pose2D, StereoRig
-from flylog.geometry.stereo import mount_angles, quaternion_matrix
+from flylog.geometry.calibrated import Mount, calibrated_rig
+from flylog.geometry.stereo import quaternion_matrix
 from flylog.io import contract
 from flylog.io.reader import LogReader, require_topics
 
@@ -80,32 +81,19 @@ def replay_inputs(reader: LogReader, *, goal: tuple[float, float] | None) -> Rep
 
 
 def _rig(reader: LogReader) -> StereoRig:
-    """The rig from the first calibrations and the static base_link → camera transforms:
-    focal length and principal point from the left K, the baseline from the right P
-    (−fx·B), doffs from the right P's cx minus the left's, the mount (position and rotation)
-    from the two cameras' transforms."""
+    """The rig from the first calibrations (their P matrices) and the static base_link →
+    camera transforms (:func:`flylog.geometry.calibrated.calibrated_rig`)."""
     calib = {}
     for side, topic in contract.CALIBRATION_TOPICS.items():
         calib[side] = next(iter(reader.messages([topic]))).value
     left, right = calib["left"], calib["right"]
-    fx = float(left.K[0, 0])
-    if not np.isclose(left.K[1, 1], fx) or not np.isclose(right.P[0, 0], fx):
-        msg = (
-            f"{reader.path}: {contract.LEFT_CALIBRATION} has K = {left.K.tolist()} and "
-            f"{contract.RIGHT_CALIBRATION} P = {right.P.tolist()}; flylog needs square pixels "
-            f"and one focal length for both rectified cameras"
-        )
-        raise LogError(msg)
-    cx, cy = float(left.K[0, 2]), float(left.K[1, 2])
-    centre = ((left.width - 1) / 2.0, (left.height - 1) / 2.0)
-    principal = None if (cx, cy) == centre else (cx, cy)
-    doffs = float(right.P[0, 2]) - float(left.P[0, 2])
-    baseline = -float(right.P[0, 3]) / fx
-    mounts: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    mounts: dict[str, Mount] = {}
     for m in reader.messages([contract.TF]):
         for t in m.value:
             if t.parent == contract.BASE_FRAME and t.child in contract.CAMERA_FRAMES.values():
-                mounts[t.child] = (np.array(t.translation, float), quaternion_matrix(t.rotation))
+                mounts[t.child] = Mount(
+                    np.array(t.translation, float), quaternion_matrix(t.rotation)
+                )
         if len(mounts) == 2:
             break
     if len(mounts) < 2:
@@ -114,39 +102,14 @@ def _rig(reader: LogReader) -> StereoRig:
             f"replay needs them to place the cameras on the robot"
         )
         raise LogError(msg)
-    (pl, rl), (pr, rr) = (mounts[contract.CAMERA_FRAMES[s]] for s in ("left", "right"))
     n = reader.topics()[contract.LEFT_IMAGE].count
     span = reader.end_ns - reader.start_ns
     frame_rate = 1e9 * (n - 1) / span if n > 1 and span > 0 else 15.0
-    # rectified: one orientation, the right optical centre B along the left camera's x axis
-    along = pl + baseline * rl[:, 0]
-    if baseline <= 0 or not np.allclose(along, pr, rtol=0.0, atol=1e-3 * max(baseline, 1e-3)):
-        msg = (
-            f"{reader.path}: the right camera's P gives a baseline of {baseline} m but "
-            f"{contract.TF} puts the cameras at {pl.tolist()} and {pr.tolist()} m; flylog needs "
-            f"a rectified rig, the right camera {baseline} m along the left camera's x axis"
-        )
-        raise LogError(msg)
-    if not np.allclose(rl, rr, atol=1e-3):
-        msg = (
-            f"{reader.path}: {contract.TF} gives the two cameras different orientations; "
-            f"flylog needs a rectified rig (both optical frames parallel)"
-        )
-        raise LogError(msg)
-    pan, tilt, roll = (a + 0.0 for a in mount_angles(rl))  # + 0.0: no −0°
-    mid = (pl + pr) / 2.0
-    return StereoRig(
-        width=left.width,
-        height=left.height,
-        focal_px=fx,
-        baseline=baseline,
-        mount_height=float(mid[2]),
-        mount_x=float(mid[0]),
-        mount_y=float(mid[1]),
-        principal_point=principal,
-        doffs=doffs,
-        tilt=tilt,
-        roll=roll,
-        pan=pan,
-        frame_rate=frame_rate,
-    )
+    return calibrated_rig(
+        (left.width, left.height), left.P, right.P,
+        mounts[contract.CAMERA_FRAMES["left"]], mounts[contract.CAMERA_FRAMES["right"]],
+        frame_rate,
+        where=str(reader.path),
+        calibration=f"{contract.LEFT_CALIBRATION} and {contract.RIGHT_CALIBRATION}",
+        transforms=contract.TF,
+    )  # fmt: skip
