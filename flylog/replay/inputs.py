@@ -21,7 +21,8 @@ import numpy as np
 
 from flylog.errors import LogError
 from flylog.geometry import Pose2D, StereoRig
-from flylog.geometry.stereo import mount_angles, quaternion_matrix
+from flylog.geometry.calibrated import Mount, calibrated_rig
+from flylog.geometry.stereo import OPTICAL_TO_BASE, quaternion_matrix
 from flylog.io import contract
 from flylog.io.reader import LogReader, require_topics
 
@@ -125,50 +126,37 @@ def replay_inputs(reader: LogReader, *, goal: tuple[float, float] | None) -> Rep
 
 
 def log_rig(reader: LogReader, *, mounted: bool = True) -> StereoRig:
-    """The rig from the first calibrations and the static base_link → camera transforms:
-    focal length and principal point from the left K, the baseline from the right P
-    (−fx·B), doffs from the right P's cx minus the left's, the mount (position and rotation)
-    from the two cameras' transforms; not ``mounted``: none (midpoint at base_link's origin,
-    optical axes along x)."""
+    """The rig from the first calibrations (their P matrices) and the static base_link →
+    camera transforms (:func:`flylog.geometry.calibrated.calibrated_rig`); not ``mounted``
+    (a dataset that gives no mount): the optical centres' midpoint at base_link's origin,
+    the optical axes level along x."""
     calib = {}
     for side, topic in contract.CALIBRATION_TOPICS.items():
         calib[side] = next(iter(reader.messages([topic]))).value
     left, right = calib["left"], calib["right"]
-    fx = float(left.K[0, 0])
-    if not np.isclose(left.K[1, 1], fx) or not np.isclose(right.P[0, 0], fx):
-        msg = (
-            f"{reader.path}: {contract.LEFT_CALIBRATION} has K = {left.K.tolist()} and "
-            f"{contract.RIGHT_CALIBRATION} P = {right.P.tolist()}; flylog needs square pixels "
-            f"and one focal length for both rectified cameras"
-        )
-        raise LogError(msg)
-    cx, cy = float(left.K[0, 2]), float(left.K[1, 2])
-    centre = ((left.width - 1) / 2.0, (left.height - 1) / 2.0)
-    principal = None if (cx, cy) == centre else (cx, cy)
-    doffs = float(right.P[0, 2]) - float(left.P[0, 2])
-    baseline = -float(right.P[0, 3]) / fx
     n = reader.topics()[contract.LEFT_IMAGE].count
     span = reader.end_ns - reader.start_ns
     frame_rate = 1e9 * (n - 1) / span if n > 1 and span > 0 else 15.0
+    size = (left.width, left.height)
+    where, calibration = (
+        str(reader.path),
+        f"{contract.LEFT_CALIBRATION} and {contract.RIGHT_CALIBRATION}",
+    )
     if not mounted:
-        return StereoRig(
-            width=left.width,
-            height=left.height,
-            focal_px=fx,
-            baseline=baseline,
-            mount_height=0.0,
-            mount_x=0.0,
-            mount_y=0.0,
-            principal_point=principal,
-            doffs=doffs,
-            frame_rate=frame_rate,
-        )
+        half_b = -float(right.P[0, 3]) / float(right.P[0, 0]) / 2.0
+        level = Mount(np.array([0.0, half_b, 0.0]), OPTICAL_TO_BASE.copy())
+        return calibrated_rig(
+            size, left.P, right.P, level, None, frame_rate,
+            where=where, calibration=calibration, transforms=contract.TF,
+        )  # fmt: skip
     require_topics(reader, [contract.TF])
-    mounts: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    mounts: dict[str, Mount] = {}
     for m in reader.messages([contract.TF]):
         for t in m.value:
             if t.parent == contract.BASE_FRAME and t.child in contract.CAMERA_FRAMES.values():
-                mounts[t.child] = (np.array(t.translation, float), quaternion_matrix(t.rotation))
+                mounts[t.child] = Mount(
+                    np.array(t.translation, float), quaternion_matrix(t.rotation)
+                )
         if len(mounts) == 2:
             break
     if len(mounts) < 2:
@@ -177,36 +165,8 @@ def log_rig(reader: LogReader, *, mounted: bool = True) -> StereoRig:
             f"replay needs them to place the cameras on the robot"
         )
         raise LogError(msg)
-    (pl, rl), (pr, rr) = (mounts[contract.CAMERA_FRAMES[s]] for s in ("left", "right"))
-    # rectified: one orientation, the right optical centre B along the left camera's x axis
-    along = pl + baseline * rl[:, 0]
-    if baseline <= 0 or not np.allclose(along, pr, rtol=0.0, atol=1e-3 * max(baseline, 1e-3)):
-        msg = (
-            f"{reader.path}: the right camera's P gives a baseline of {baseline} m but "
-            f"{contract.TF} puts the cameras at {pl.tolist()} and {pr.tolist()} m; flylog needs "
-            f"a rectified rig, the right camera {baseline} m along the left camera's x axis"
-        )
-        raise LogError(msg)
-    if not np.allclose(rl, rr, atol=1e-3):
-        msg = (
-            f"{reader.path}: {contract.TF} gives the two cameras different orientations; "
-            f"flylog needs a rectified rig (both optical frames parallel)"
-        )
-        raise LogError(msg)
-    pan, tilt, roll = (a + 0.0 for a in mount_angles(rl))  # + 0.0: no −0°
-    mid = (pl + pr) / 2.0
-    return StereoRig(
-        width=left.width,
-        height=left.height,
-        focal_px=fx,
-        baseline=baseline,
-        mount_height=float(mid[2]),
-        mount_x=float(mid[0]),
-        mount_y=float(mid[1]),
-        principal_point=principal,
-        doffs=doffs,
-        tilt=tilt,
-        roll=roll,
-        pan=pan,
-        frame_rate=frame_rate,
-    )
+    return calibrated_rig(
+        size, left.P, right.P,
+        mounts[contract.CAMERA_FRAMES["left"]], mounts[contract.CAMERA_FRAMES["right"]],
+        frame_rate, where=where, calibration=calibration, transforms=contract.TF,
+    )  # fmt: skip

@@ -3,12 +3,11 @@
 A raw camera (D ≠ 0 or R ≠ I) is rectified with OpenCV: ``initUndistortRectifyMap`` (or its
 ``fisheye`` twin for ``equidistant``) from K, D, R and the rectified P, computed once per
 calibration; a rectified camera (D = 0, R = I) passes untouched. The rectified P matrices
-then define the rig (:func:`rig_from_calibration`).
+and the rectified cameras' mounts then define the rig (:func:`rig_from_calibration`).
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -16,14 +15,9 @@ import numpy as np
 
 from flylog.errors import LogError
 from flylog.geometry import StereoRig
-from flylog.geometry.stereo import OPTICAL_TO_BASE
+from flylog.geometry.calibrated import Mount, calibrated_rig
 
 MODELS = ("plumb_bob", "rational_polynomial", "equidistant")
-# How far a rectified rig may be from what StereoRig represents: principal point (px),
-# focal lengths (relative), camera axes (rad).
-PIXEL_TOLERANCE = 1e-3
-RELATIVE_TOLERANCE = 1e-6
-ANGLE_TOLERANCE = 1e-4
 
 
 @dataclass(frozen=True)
@@ -110,64 +104,31 @@ def rectified_orientation(camera: CameraModel, in_base: np.ndarray) -> np.ndarra
 def rig_from_calibration(
     left: CameraModel,
     right: CameraModel,
-    mount: tuple[np.ndarray, np.ndarray],
+    mounts: tuple[Mount, Mount | None],
     frame_rate: float,
+    *,
     where: str,
+    calibration: str,
+    transforms: str,
 ) -> StereoRig:
-    """The rig of two rectified cameras (their P matrices) with the left one's rectified
-    optical frame at ``mount`` = (position (3,), axes (3, 3)) in base_link.
-
-    StereoRig represents square pixels, the principal point at the image centre in both
-    cameras, optical axes along base_link's x and the left camera at y = +baseline/2; any
-    other calibration is a LogError naming ``where`` (bag and topic) and what differs.
-    """
-    pl, pr = left.P, right.P
-    fx = float(pl[0, 0])
-    cx, cy = (left.width - 1) / 2.0, (left.height - 1) / 2.0
-
-    def refuse(what: str) -> LogError:
-        return LogError(f"{where}: {what}, which flylog's stereo rig does not yet support")
-
+    """The rig of two cameras from their rectified P matrices and their raw optical frames'
+    mounts in base_link (the right one None when the transforms do not place it apart from
+    the left one): :func:`flylog.geometry.calibrated.calibrated_rig`, whose LogErrors name
+    ``where`` (the bag) and ``calibration`` (the CameraInfo topics) or ``transforms``."""
     if (left.width, left.height) != (right.width, right.height):
-        raise refuse(f"the cameras differ in size ({left.width}×{left.height} and "
-                     f"{right.width}×{right.height})")  # fmt: skip
-    if not math.isclose(float(pl[1, 1]), fx, rel_tol=RELATIVE_TOLERANCE):
-        raise refuse(f"the rectified P has fx = {fx} and fy = {pl[1, 1]} (non-square pixels)")
-    if not (abs(pl[0, 2] - cx) <= PIXEL_TOLERANCE and abs(pl[1, 2] - cy) <= PIXEL_TOLERANCE):
-        raise refuse(f"the principal point is ({pl[0, 2]}, {pl[1, 2]}), not the image "
-                     f"centre ({cx}, {cy})")  # fmt: skip
-    if not (
-        math.isclose(float(pr[0, 0]), fx, rel_tol=RELATIVE_TOLERANCE)
-        and abs(pr[0, 2] - pl[0, 2]) <= PIXEL_TOLERANCE
-        and abs(pr[1, 2] - pl[1, 2]) <= PIXEL_TOLERANCE
-        and pr[1, 3] == 0.0
-    ):
-        raise refuse(
-            "the right camera's rectified P differs from the left one's in focal length or "
-            "principal point (a horizontal offset doffs, or not rectified)"
+        msg = (
+            f"{where}: {calibration}: the cameras differ in size ({left.width}×{left.height} and "
+            f"{right.width}×{right.height}), which flylog's stereo rig does not support"
         )
-    baseline = -float(pr[0, 3]) / fx
-    position, axes = mount
-    angle = _angle_between(axes, OPTICAL_TO_BASE)
-    if angle > ANGLE_TOLERANCE:
-        raise refuse(f"the left camera is turned {math.degrees(angle):.3g}° away from looking "
-                     f"straight ahead along base_link's x")  # fmt: skip
-    x, y, z = (float(v) for v in position)
-    if baseline <= 0 or not math.isclose(y, baseline / 2.0, rel_tol=1e-3, abs_tol=1e-6):
-        raise refuse(f"the right camera's P gives a baseline of {baseline} m but the left "
-                     f"camera sits at y = {y} m (a rig not symmetric about base_link)")  # fmt: skip
-    return StereoRig(
-        width=left.width,
-        height=left.height,
-        focal_px=fx,
-        baseline=baseline,
-        mount_height=z,
-        mount_x=x,
-        frame_rate=frame_rate,
-    )
+        raise LogError(msg)
+    left_mount, right_mount = mounts
+    return calibrated_rig(
+        (left.width, left.height), left.P, right.P, _rectified(left, left_mount),
+        None if right_mount is None else _rectified(right, right_mount), frame_rate,
+        where=where, calibration=calibration, transforms=transforms,
+    )  # fmt: skip
 
 
-def _angle_between(a: np.ndarray, b: np.ndarray) -> float:
-    """The angle of the rotation taking b to a (rad)."""
-    c = (float(np.trace(a @ b.T)) - 1.0) / 2.0
-    return math.acos(max(-1.0, min(1.0, c)))
+def _rectified(camera: CameraModel, mount: Mount) -> Mount:
+    """The rectified camera's mount: the raw one's optical centre, its axes turned by Rᵀ."""
+    return Mount(mount.position, rectified_orientation(camera, mount.axes))

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from flylog.geometry import Pose2D
+from flylog.geometry.stereo import quaternion_matrix
 from flylog.io.decode import yaw_of
 
 BASE_FRAME = "base_link"
@@ -26,19 +27,16 @@ def frame_name(frame_id: str) -> str:
 
 
 def rotation_matrix(q: Any) -> np.ndarray:
-    """3×3 rotation of a geometry_msgs/Quaternion (normalised first)."""
+    """3×3 rotation of a geometry_msgs/Quaternion, normalised first unless it is a unit
+    quaternion to 1e-12 already (then it converts as flylog's log reader converts it, so
+    an exported log's mounts read back bit for bit)."""
     x, y, z, w = float(q.x), float(q.y), float(q.z), float(q.w)
     n = math.sqrt(x * x + y * y + z * z + w * w)
     if n == 0.0:
         return np.eye(3)
-    x, y, z, w = x / n, y / n, z / n, w / n
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ]
-    )
+    if abs(n - 1.0) > 1e-12:
+        x, y, z, w = x / n, y / n, z / n, w / n
+    return quaternion_matrix((x, y, z, w))
 
 
 def tilt(rotation: np.ndarray) -> float:

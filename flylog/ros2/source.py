@@ -14,20 +14,15 @@ import numpy as np
 
 from flylog.errors import LogError
 from flylog.geometry import Pose2D, StereoRig
+from flylog.geometry.calibrated import Mount
 from flylog.io import contract
 from flylog.io.pairing import UnpairedImagesWarning
 from flylog.io.records import LogMessage
 from flylog.ros2 import types
 from flylog.ros2.bag import Bag, open_bag
-from flylog.ros2.calibration import (
-    CameraModel,
-    camera_model,
-    rectified_orientation,
-    rectifier,
-    rig_from_calibration,
-)
+from flylog.ros2.calibration import CameraModel, camera_model, rectifier, rig_from_calibration
 from flylog.ros2.config import BagOptions
-from flylog.ros2.frames import StaticTree, stamp_ns
+from flylog.ros2.frames import StaticTree, frame_name, stamp_ns
 from flylog.ros2.images import UnsupportedImage, image_of
 from flylog.ros2.odometry import NoOdometryWarning, OdometryReader
 from flylog.ros2.pairing import StereoPairing
@@ -84,8 +79,10 @@ class BagSource:
             raise LogError(msg) from None
 
     def _rig(self) -> StereoRig:
+        """The rig from the two CameraInfos and the cameras' frames in /tf_static: the left
+        frame must be there; the right one, when /tf_static has it and it is not the left
+        one's, checks that the right camera sits where the right P puts it."""
         left, right = self.cameras["left"], self.cameras["right"]
-        where = f"{self.where}: {self.roles.left_info} and {self.roles.right_info}"
         mount = self.tree.in_base(left.frame_id)
         if mount is None:
             msg = (
@@ -94,10 +91,15 @@ class BagSource:
                 f"cameras' mount on the robot"
             )
             raise LogError(msg)
-        position, axes = mount
+        right_mount = None
+        if frame_name(right.frame_id) != frame_name(left.frame_id):
+            found = self.tree.in_base(right.frame_id)
+            right_mount = None if found is None else Mount(*found)
         return rig_from_calibration(
-            left, right, (position, rectified_orientation(left, axes)), self._frame_rate(),
-            where,
+            left, right, (Mount(*mount), right_mount), self._frame_rate(),
+            where=self.where,
+            calibration=f"{self.roles.left_info} and {self.roles.right_info}",
+            transforms=types.TF_STATIC,
         )  # fmt: skip
 
     def _frame_rate(self) -> float:

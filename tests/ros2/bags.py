@@ -115,6 +115,27 @@ def yaw_q(yaw: float, roll: float = 0.0) -> tuple[float, float, float, float]:
     return (cy * sr, sy * sr, cr * sy, cy * cr)
 
 
+def turned_q(pan: float = 0.0, tilt: float = 0.0, roll: float = 0.0) -> tuple:
+    """x, y, z, w of Rz(pan)·Ry(tilt)·Rx(roll) (radians) applied to the level optical
+    frame: a camera panned left, tilted down and rolled."""
+
+    def mul(a: tuple, b: tuple) -> tuple:
+        (ax, ay, az, aw), (bx, by, bz, bw) = a, b
+        return (
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+            aw * bw - ax * bx - ay * by - az * bz,
+        )
+
+    def about(axis: int, angle: float) -> tuple:
+        q = [0.0, 0.0, 0.0, math.cos(angle / 2)]
+        q[axis] = math.sin(angle / 2)
+        return tuple(q)
+
+    return mul(about(2, pan), mul(about(1, tilt), mul(about(0, roll), OPTICAL_Q)))
+
+
 def odometry(t_ns: int, x: float, y: float, yaw: float, roll: float = 0.0) -> Any:
     q = yaw_q(yaw, roll)
     pose = T["geometry_msgs/msg/Pose"](
@@ -155,12 +176,18 @@ class BagSpec:
     extra: list[Message] = field(default_factory=list)
     image_of: Callable[[str, np.ndarray], np.ndarray] | None = None  # side, rgb → pixels
     right_delay_ns: int = 0
+    camera_q: tuple[float, float, float, float] = OPTICAL_Q  # left optical frame in base_link
+    principal_point: tuple[float, float] = ((W - 1) / 2, (H - 1) / 2)  # left camera's (px)
+    doffs: float = 0.0  # right cx − left cx (px)
+    right_mount: tuple[float, float, float] | None = None  # camera_right in /tf_static
 
 
 def messages(spec: BagSpec) -> list[Message]:
     left_img, right_img = stereo_views()
     out: list[Message] = []
-    statics = [transform(0, "base_link", "camera_left", MOUNT, OPTICAL_Q)]
+    statics = [transform(0, "base_link", "camera_left", MOUNT, spec.camera_q)]
+    if spec.right_mount is not None:
+        statics.append(transform(0, "base_link", "camera_right", spec.right_mount, spec.camera_q))
     for i, yaw in enumerate(spec.sonars):
         xyz = (0.2 * math.cos(yaw), 0.2 * math.sin(yaw), 0.3)
         statics.append(transform(0, "base_link", f"sonar_{i}", xyz, yaw_q(yaw)))
@@ -179,7 +206,9 @@ def messages(spec: BagSpec) -> list[Message]:
         ):
             ts = t + (spec.right_delay_ns if side == "right" else 0)
             tx = 0.0 if side == "left" else -FOCAL * BASELINE
-            info = camera_info(ts, f"camera_{side}", tx)
+            cx, cy = spec.principal_point
+            cx += spec.doffs if side == "right" else 0.0
+            info = camera_info(ts, f"camera_{side}", tx, k=k_matrix(cx, cy), p=p_matrix(tx, cx, cy))
             out.append((f"{ns[side]}/camera_info", "sensor_msgs/msg/CameraInfo", ts, info))
             data = pixels if spec.image_of is None else spec.image_of(side, pixels)
             if spec.encoding in ("jpeg", "png"):

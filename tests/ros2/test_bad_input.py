@@ -92,19 +92,19 @@ def test_a_directory_without_metadata_yaml(tmp_path):
     refused(tmp_path, bag, "without metadata.yaml", "bag.mcap")
 
 
-def test_a_ros1_bag_and_an_off_centre_principal_point(tmp_path):
+def test_a_ros1_bag_and_non_square_pixels(tmp_path):
     ros1 = tmp_path / "old.bag"
     ros1.write_bytes(b"#ROSBAG V2.0\n" + bytes(64))
     refused(tmp_path, ros1, "is a ROS 1 bag")
     items = []
     for topic, mtype, t, msg in bags.messages(BagSpec(frames=2)):
         if mtype == "sensor_msgs/msg/CameraInfo":
-            msg.p = bags.p_matrix(msg.p[3], cx=35.0)
+            msg.p[5] = 41.0  # fy ≠ fx = 40
         items.append((topic, mtype, t, msg))
     refused(
-        tmp_path, write_bag(tmp_path / "off", items),
-        "/stereo/left/camera_info and /stereo/right/camera_info",
-        "principal point is (35.0, 23.5)", "does not yet support",
+        tmp_path, write_bag(tmp_path / "rect", items),
+        "/stereo/left/camera_info and /stereo/right/camera_info: the left P has fx = 40.0, "
+        "fy = 41.0", "needs square pixels",
     )  # fmt: skip
 
 
