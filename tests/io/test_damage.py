@@ -102,12 +102,13 @@ def test_a_missing_chunk_index_loses_no_message(chunked, tmp_path):
     sample, original, _ = chunked
     data = sample.path.read_bytes()
     _, records = summary_of(data)
-    i = kinds(records, CHUNK_INDEX)[3]
+    indexes = kinds(records, CHUNK_INDEX)
+    i = indexes[3]
     bad = tmp_path / "missing.mcap"
     bad.write_bytes(with_summary(data, records[:i] + records[i + 1 :]))
     got, _, damage = read(bad)
     assert got == original
-    assert "counts 13 chunks but indexes 12" in damage[0]
+    assert f"counts {len(indexes)} chunks but indexes {len(indexes) - 1}" in damage[0]
 
 
 def test_messages_on_a_channel_the_summary_lacks_are_a_warning_not_a_key_error(chunked, tmp_path):

@@ -198,7 +198,10 @@ def test_corrupt_chunk_of_an_unfinished_log_is_skipped(chunked, tmp_path):
     skipped = [w for w in caught if w.category is DamagedLogWarning]
     assert len(skipped) == 1
     assert f"{len(full) - len(got)} messages lost, {len(got)} read" in str(skipped[0].message)
-    assert "chunk CRC mismatch" in str(skipped[0].message)
+    # zeroed bytes fail the chunk's CRC, or its decompression first where they hit the frame
+    assert any(
+        why in str(skipped[0].message) for why in ("chunk CRC mismatch", "decompression error")
+    )
 
 
 def test_corrupt_chunk_of_a_finished_log_is_skipped_and_counted(chunked, tmp_path):

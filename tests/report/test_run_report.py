@@ -8,7 +8,7 @@ from click.testing import CliRunner
 from flylog.cli.main import cli
 from flylog.config import replace_dotted
 from flylog.metrics.score import score_run
-from flylog.metrics.tables import read_summary
+from flylog.metrics.tables import SUMMARY_COLUMNS, read_summary
 from flylog.replay.config import ReplayConfig
 from flylog.replay.run import replay
 
@@ -34,7 +34,8 @@ def test_the_page_has_every_section_and_decodable_images(run: Path, tmp_path: Pa
     assert len(images) == 3  # map, frames, curves
     text = page.read_text(encoding="utf-8")
     assert '<td class="text">precision</td>' in text and '"flies": 200' in text
-    assert sum(1 for t, _ in tags if t == "tr") == 1 + 30  # header + every summary column
+    rows = 1 + len(SUMMARY_COLUMNS)  # header + every summary column
+    assert sum(1 for t, _ in tags if t == "tr") == rows
 
 
 def test_a_run_without_its_log_is_an_error_and_leaves_nothing(run: Path, tmp_path: Path) -> None:
