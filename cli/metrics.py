@@ -123,8 +123,9 @@ def metrics(
     from flylog.io.collisions import Role, check_outputs
     from flylog.metrics.config import MetricsConfig
     from flylog.metrics.score import score_run, write_metrics
-    from flylog.metrics.tables import obstacles_path, summary_path
+    from flylog.metrics.tables import check_output_name, obstacles_path, summary_path
 
+    check_output_name(output)  # before the scoring, which takes a while
     inputs = [Role(run, "the run", "run")]
     inputs += [Role(log, "the sensor log", "log")] if log is not None else []
     inputs += [Role(config_file, "the configuration", "config_file")] if config_file else []

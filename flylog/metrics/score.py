@@ -387,9 +387,7 @@ def write_metrics(result: MetricsResult, output: str | Path) -> tuple[Path, Path
     """Write the snapshot table to ``output`` and the summary and obstacle tables beside it
     (``NAME.summary.parquet``, ``NAME.obstacles.parquet``); returns the three paths."""
     output = Path(output)
-    if output.suffix != ".parquet":
-        msg = f"{output}: the metrics output must end in .parquet"
-        raise LogError(msg)
+    tables.check_output_name(output)
     meta = {tables.METADATA_KEY: json.dumps(to_mapping(result.config))}
     paths = (output, tables.summary_path(output), tables.obstacles_path(output))
     tables.write_table(paths[0], tables.SNAPSHOT_COLUMNS, result.snapshots, meta)

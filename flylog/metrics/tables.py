@@ -17,7 +17,7 @@ from typing import Any
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from flylog.errors import LogError
+from flylog.errors import LogError, OutputError
 from flylog.io.tables import Column, TableWriter, schema
 
 SUMMARY_SUFFIX = ".summary.parquet"
@@ -128,6 +128,14 @@ def write_table(
     with TableWriter(path, schema(columns), metadata=metadata) as table:
         for row in rows:
             table.append({c.name: clean(row[c.name]) for c in columns})
+
+
+def check_output_name(path: Path) -> None:
+    """OutputError unless ``path`` names a Parquet file (``NAME.parquet``): the tables
+    beside it take their names from it."""
+    if Path(path).suffix != ".parquet":
+        msg = f"{path}: the metrics output must end in .parquet"
+        raise OutputError(msg, parameter="output")
 
 
 def summary_path(path: Path) -> Path:

@@ -196,3 +196,17 @@ def test_export_tum_goes_through_the_atomic_writer(work):
     assert written == ["odom.tum", "true.tum"]  # no .part left
     for name in written:
         assert (work / "tum" / name).stat().st_mode & 0o777 == 0o644
+
+
+def test_a_metrics_output_not_named_parquet_is_refused_before_scoring(work, monkeypatch):
+    import flylog.metrics.score as score
+
+    def never(*args, **kwargs):
+        raise AssertionError("scored before the output's name was checked")
+
+    monkeypatch.setattr(score, "score_run", never)
+    result = run("metrics", "log.mcap", "-o", "m.csv")
+    assert result.exit_code == 2
+    (line,) = error_lines(result)
+    assert "must end in .parquet" in line and line.endswith("choose another --output")
+    assert sorted(p.name for p in work.iterdir()) == ["log.mcap", "s.toml"]
