@@ -101,7 +101,7 @@ class PlannerConfig:
         0.1,
         help="weight of an obstacle cell among a free cell's four neighbours in the "
         "relaxation: 1 = Dirichlet obstacles (U = 1 on them, the paper's form); below 1 a "
-        "Robin boundary (towards reflecting as it falls) under which U no longer decays "
+        "Robin boundary (towards reflecting as it falls) under which U does not decay "
         "exponentially along a corridor, so a narrow passage to the goal is not outweighed "
         "by a wide detour (U stays harmonic: no local minima; border 1 and goal 0 remain). "
         "With the true obstacles of the corridor and clutter scenes, relaxed to convergence, "

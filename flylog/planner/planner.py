@@ -8,7 +8,7 @@ grid keeps its values between ticks: obstacle changes only re-pin cells and the 
 sweeps carry the change through, as the paper's continually iterated function does.
 
 ``obstacle_weight`` (1: the paper's form) is the weight an obstacle cell has in the mean of
-its free neighbours: below 1, a Robin boundary under which 1 − U no longer decays
+its free neighbours: below 1, a Robin boundary under which 1 − U does not decay
 exponentially along a channel, so a narrow passage to the goal is not outweighed by a wide
 detour (docs/navigation.md gives the decay rates). The only minimum is still the goal.
 The obstacle memory is :class:`~flylog.planner.map.ObstacleMap`; a goal the map cuts off
