@@ -256,8 +256,12 @@ class PlannerConfig:
         min=0.0,
     )
     stuck_time: float = param(
-        20.0,
-        help="time without progress towards the goal after which the status is STUCK",
+        60.0,
+        help="time without progress towards the goal after which the status is STUCK (and "
+        "a closed loop ends stuck_timeout later): longer than the scenes' detours, in which "
+        "the distance to the goal grows. On clutter, a robot that goes round the outside of "
+        "the walls is 12.8 m from the goal at the walls' far corner, 2.8 m farther than at "
+        "the start; at 20 s the closed loop ends 2 of 3 such runs there",
         unit="s",
         min=0.0,
     )
