@@ -114,8 +114,10 @@ def test_counting_every_fly_as_one_narrows_the_same_passage():
     assert gaps.min() <= 0.8 + 1e-9 and np.median(gaps) <= 1.0 + 1e-9
 
 
-@pytest.mark.parametrize(("margin", "cells_wide", "open_"), [(0.05, 9, True), (0.05, 8, False),
-                                                            (0.1, 11, True), (0.1, 10, False)])
+@pytest.mark.parametrize(
+    ("margin", "cells_wide", "open_"),
+    [(0.05, 9, True), (0.05, 8, False), (0.1, 11, True), (0.1, 10, False)],
+)
 def test_inflation_keeps_a_passage_open_from_its_stated_width(margin, cells_wide, open_):
     # walls mapped as cells whose centres lie cells_wide - 1 cells apart: a passage of
     # cells_wide cells, face to face (the wall cells' half cells each side)
