@@ -191,6 +191,11 @@ def simulate(
         f"{summary.path}: {summary.frames} stereo frames, {summary.messages} messages, "
         f"{human_bytes(summary.bytes)}, {summary.duration:g} s simulated in "
         f"{summary.wall_seconds:.1f} s wall ({speed:.1f}× real time); "
-        f"{summary.goal_distance:.2f} m from the goal",
+        f"{summary.goal_distance:.2f} m from the goal"
+        + (
+            f"; planner {summary.status}, run ended by {summary.ending}"
+            if summary.ending is not None
+            else ""
+        ),
         soft_wrap=True,
     )

@@ -1,6 +1,7 @@
 """Closed-loop obstacle avoidance (paper §4, Fig. 7/8): the fly engine and the harmonic
-planner drive the simulated robot from start to goal on ``corridor`` and ``clutter``
-(``flylog simulate --drive planner``). A run *succeeds* if the true position reaches the
+planner drive the simulated robot from start to goal on ``corridor``, ``clutter`` and
+``doorways`` (``flylog simulate --drive planner``), and ``doorways`` at twice the
+resolution (640×480 beside 320×240). A run *succeeds* if the true position reaches the
 goal without any collision (the robot's footprint never enters an obstacle's)."""
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from flylog.config import replace_dotted
-from flylog.experiments import plots
+from flylog.experiments.closed_loop_plots import Drawn, figures, seed0_flies
 from flylog.experiments.common import (
     Column,
     Count,
@@ -28,39 +29,37 @@ from flylog.experiments.common import (
     spread,
 )
 from flylog.experiments.markdown import finish_experiment
-from flylog.experiments.runs import (
-    fly_snapshots,
-    score,
-    simulate_scene,
-    to_world,
-    trajectories,
-    true_poses_at,
-    with_flies,
-)
+from flylog.experiments.runs import score, simulate_scene, trajectories, with_flies
 from flylog.planner import PlannerConfig
 from flylog.replay.config import ReplayConfig
 
 NAME = "closed-loop"
-SCENES = ("corridor", "clutter")
-MAX_FLIES_DRAWN = 4000  # obstacle flies of seed 0 on the map, subsampled evenly
-# A time limit, not a duration: a run ends when the planner reports the goal reached. The
-# scenes' own durations (30 s, 40 s) suit their scripted drives, not the planner's slower,
-# winding paths: clutter's round outside its walls takes 92-104 s, and clutter seed 18's
-# 44 m one 120.8 s (a 120 s limit ends it 0.39 m short, still driving).
+SCENES = ("corridor", "clutter", "doorways")
+# (scene, resolution factor, seeds at most) run besides: the narrow passages at twice the
+# resolution (640×480 beside 320×240), where one pixel of disparity spans half the depth
+FINER = (("doorways", 2, 3),)
+# A time limit, not a duration: a run ends when the planner reports the goal reached, or
+# STUCK for planner.stuck_timeout. The scenes' own durations suit their scripted drives,
+# not the planner's slower, winding paths: a round of clutter outside its walls (44 m)
+# takes 121 s.
 TIME_LIMIT = 180.0  # s
 
 
 @dataclasses.dataclass(frozen=True)
-class _Drawn:
-    """What the figures need of one run, kept after its log is deleted."""
-
+class _Job:
+    group: str  # the table row: the scene, or the scene and a resolution
+    scene: str
     seed: int
-    t: np.ndarray  # s
-    true_xy: np.ndarray
-    odom_xy: np.ndarray
-    clearance_t: np.ndarray
-    clearance: np.ndarray
-    flies: np.ndarray | None  # world x, y of the obstacle flies (seed 0 only)
+    resolution: tuple[int, int]
+
+
+def _jobs(options: ExperimentOptions) -> list[_Job]:
+    jobs = [_Job(s, s, k, options.resolution) for s in SCENES for k in range(options.seeds)]
+    for scene, factor, most in FINER:
+        w, h = (factor * n for n in options.resolution)
+        group = f"{scene} {w}×{h}"
+        jobs += [_Job(group, scene, k, (w, h)) for k in range(min(most, options.seeds))]
+    return jobs
 
 
 def touched_obstacles(scene, xy: np.ndarray, radius: float) -> list[int]:
@@ -99,42 +98,48 @@ def run_closed_loop(
 
     here = experiment_dir(out_dir, NAME)
     overrides = {f"planner.{key}": value for key, value in (planner or {}).items()}
-    steps = Steps(options.seeds * len(SCENES), on_progress)
+    jobs = _jobs(options)
+    steps = Steps(len(jobs), on_progress)
     scenes = {name: load_scene(options.scene_path(name)) for name in SCENES}
-    jobs = [(name, seed) for name in SCENES for seed in range(options.seeds)]
-    done: dict[tuple[str, int], tuple[dict, _Drawn]] = {}
+    done: dict[_Job, tuple[dict, Drawn]] = {}
     # every run is independent and seeded: run them side by side, one per core
     workers = min(len(jobs), os.cpu_count() or 1)
     if workers > 1:
         # spawn, not fork: a forked child inherits the parent's threads' locks (pytest, I/O)
         context = multiprocessing.get_context("spawn")
         with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-            futures = {pool.submit(_one_run, here, options, overrides, *job): job for job in jobs}
+            futures = {pool.submit(_one_run, here, options, overrides, job): job for job in jobs}
             for future in as_completed(futures):
                 done[futures[future]] = future.result()
                 steps.step()
     else:
         for job in jobs:
-            done[job] = _one_run(here, options, overrides, *job)
+            done[job] = _one_run(here, options, overrides, job)
             steps.step()
     runs = [done[job][0] for job in jobs]
-    drawn: dict[str, list[_Drawn]] = {
-        s: [done[(s, k)][1] for k in range(options.seeds)] for s in SCENES
-    }
+    groups = {job.group: job.scene for job in jobs}
+    drawn = {g: [done[job][1] for job in jobs if job.group == g] for g in groups}
     effective = _config(options, 0, overrides)
     used, heading = effective.planner, effective.heading
-    table = _table(runs, options.seeds)
-    figures = _figures(here, scenes, drawn)
+    table = _table(runs, groups, options.seeds)
+    drawings = figures(here, scenes, drawn, groups)
     findings = _findings(runs, table)
+    wide = [g for g in groups if g not in SCENES]
     setup = [
         f"scenes {', '.join(f'`{s}`' for s in SCENES)} at {options.resolution[0]}×"
         f"{options.resolution[1]} pixels, closed loop (`flylog simulate --drive planner`), "
         "asynchronous engine and planner with the defaults"
-        + (f", {options.flies} flies" if options.flies else " (5000 flies)"),
-        "each run ends when the planner reports the goal reached, or after "
+        + (f", {options.flies} flies" if options.flies else " (5000 flies)")
+        + (f"; besides, {', '.join(f'`{g}`' for g in wide)}" if wide else ""),
+        "each run ends when the planner reports the goal reached, when it has reported "
+        f"STUCK for {used.stuck_timeout:g} s (planner.stuck_timeout), or after "
         f"{options.duration_or(TIME_LIMIT):g} s",
-        f"{options.seeds} seeds per scene (0…{options.seeds - 1}): the seed drives the "
-        "trajectory and sonar noise and the engine; mean ± standard deviation over seeds",
+        f"{options.seeds} seeds per scene (0…{options.seeds - 1}; "
+        + ", ".join(f"{g}: {len(drawn[g])}" for g in wide)
+        + "): the seed drives the trajectory and sonar noise and the engine; mean ± "
+        "standard deviation over seeds; *inside the walls*: the true path never leaves the "
+        "bounding box of the scene's walls (on `clutter`: through the clutter, not round "
+        "the outside of its walls)",
         "goal reached: the true position within 0.2 m of the goal (metrics.goal_tolerance); "
         "the planner stops when its own position is within "
         f"{used.goal_tolerance:g} m of the goal (planner.goal_tolerance): the odometry, its "
@@ -153,7 +158,7 @@ def run_closed_loop(
         intro=__doc__ or "",
         table=table,
         findings=findings,
-        figures=figures,
+        figures=drawings,
         setup=setup,
         runs=runs,
     )
@@ -199,42 +204,60 @@ def _describe_planner(planner: PlannerConfig, overrides: Mapping[str, object]) -
 
 
 def _one_run(
-    here: Path, options: ExperimentOptions, overrides: Mapping[str, object], name: str, seed: int
-) -> tuple[dict, _Drawn]:
-    """Simulate one closed-loop run of ``name`` with ``seed``, score it; its row and what the
-    figures need (the log is deleted unless kept)."""
+    here: Path, options: ExperimentOptions, overrides: Mapping[str, object], job: _Job
+) -> tuple[dict, Drawn]:
+    """Simulate one closed-loop run of ``job``, score it; its row and what the figures need
+    (the log is deleted unless kept)."""
+    from flylog.io import contract
+    from flylog.io.reader import open_log
     from flylog.scene.load import load_scene
 
+    name, seed = job.scene, job.seed
     scene = load_scene(options.scene_path(name))
     config = _config(options, seed, overrides)
-    log = here / "runs" / f"{name}_s{seed}.mcap"
-    simulate_scene(options, name, seed, log, options.duration_or(TIME_LIMIT), drive_with=config)
+    w, h = job.resolution
+    log = here / "runs" / f"{name}_{w}x{h}_s{seed}.mcap"
+    at = dataclasses.replace(options, resolution=job.resolution)
+    simulate_scene(at, name, seed, log, options.duration_or(TIME_LIMIT), drive_with=config)
+    ending = open_log(log).metadata()[contract.REPLAY_METADATA].get("ending", "")
     scored = score(log, log)
     s = scored.summary
     t, true, odom = trajectories(log)
     touched = touched_obstacles(scene, true[:, :2], scene.spec.robot.radius)
     row = {
-        "scene": name,
+        "scene": job.group,
         "seed": seed,
         "success": bool(s["goal_reached"] and s["collisions"] == 0),
         **{k: s[k] for k in _SUMMARY_KEYS},
         "touched": [describe_obstacle(scene, k) for k in touched],
         # what the robot cannot know: how far its odometry is off at the end
         "final_drift_m": float(np.hypot(*(true[-1, :2] - odom[-1, :2]))),
+        "ending": ending,
+        "inside_walls": inside_walls(scene, true[:, :2]),
     }
     rows = scored.snapshots
-    drawn = _Drawn(
+    drawn = Drawn(
         seed,
         t,
         true[:, :2],
         odom[:, :2],
         np.array([r["t_s"] for r in rows]),
         np.array([r["nearest_true_m"] for r in rows]) - scene.spec.robot.radius,
-        _seed0_flies(log) if seed == 0 else None,
+        seed0_flies(log) if seed == 0 else None,
     )
     if not options.keep_logs:
         log.unlink()
     return row, drawn
+
+
+def inside_walls(scene, xy: np.ndarray) -> bool:
+    """Whether the points (N, 2) all lie inside the bounding box of the scene's walls (True
+    for a scene without walls)."""
+    ends = [p for ob in scene.obstacles if ob.kind.value == "wall" for p in (ob.start, ob.end)]
+    if not ends:
+        return True
+    lo, hi = np.min(ends, axis=0), np.max(ends, axis=0)
+    return bool(np.all((xy >= lo) & (xy <= hi)))
 
 
 _SUMMARY_KEYS = (
@@ -251,22 +274,9 @@ _SUMMARY_KEYS = (
 )
 
 
-def _seed0_flies(log: Path) -> np.ndarray:
-    """World x, y of every obstacle fly of every snapshot (from the true pose), subsampled."""
-    times, clouds = fly_snapshots(log)
-    if not len(times):
-        return np.empty((0, 2))
-    poses = true_poses_at(log, times)
-    xy = [to_world(c, p) for c, p in zip(clouds, poses, strict=True) if len(c)]
-    every = np.concatenate(xy) if xy else np.empty((0, 2))
-    if len(every) > MAX_FLIES_DRAWN:
-        every = every[np.linspace(0, len(every) - 1, MAX_FLIES_DRAWN).astype(int)]
-    return every
-
-
-def _table(runs: list[dict], seeds: int) -> Table:
+def _table(runs: list[dict], groups: Mapping[str, str], seeds: int) -> Table:
     rows = []
-    for name in SCENES:
+    for name in groups:
         mine = [r for r in runs if r["scene"] == name]
         rows.append(
             {
@@ -277,6 +287,8 @@ def _table(runs: list[dict], seeds: int) -> Table:
                     sum(bool(r["planner_goal_reached"]) for r in mine), len(mine)
                 ),
                 "collision_free": Count(sum(r["collisions"] == 0 for r in mine), len(mine)),
+                "inside_walls": Count(sum(r["inside_walls"] for r in mine), len(mine)),
+                "stuck": Count(sum(r["ending"] == "stuck" for r in mine), len(mine)),
                 **{
                     k: spread([r[k] for r in mine])
                     for k in (
@@ -298,6 +310,8 @@ def _table(runs: list[dict], seeds: int) -> Table:
         Column("goal_reached", "goal reached"),
         Column("planner_goal", "planner reported the goal"),
         Column("collision_free", "no collision"),
+        Column("inside_walls", "inside the walls"),
+        Column("stuck", "ended STUCK"),
         Column("time_to_goal_s", "time to goal (s)", ".1f"),
         Column("path_length_m", "path length (m)", ".2f"),
         Column("min_clearance_m", "min clearance (m)", ".2f"),
@@ -313,10 +327,15 @@ def _table(runs: list[dict], seeds: int) -> Table:
 def _findings(runs: list[dict], table: Table) -> list[str]:
     out = []
     for row in table.rows:
+        mine = [r for r in runs if r["scene"] == row["scene"]]
+        lengths = [r["path_length_m"] for r in mine]
+        clear = min((r["min_clearance_m"] for r in mine), default=float("nan"))
         out.append(
             f"`{row['scene']}`: goal reached without collision on {row['success'].k} of "
             f"{row['success'].n} seeds (goal reached on {row['goal_reached'].k}, no collision "
-            f"on {row['collision_free'].k})"
+            f"on {row['collision_free'].k}, ended STUCK on {row['stuck'].k}); inside the walls "
+            f"on {row['inside_walls'].k}; path length {min(lengths):.1f}–{max(lengths):.1f} m; "
+            f"lowest minimum clearance {clear:.2f} m"
         )
     for r in runs:
         if r["touched"] or not r["goal_reached"]:
@@ -327,69 +346,10 @@ def _findings(runs: list[dict], table: Table) -> list[str]:
                 if r["goal_reached"]
                 else f"NOT reached ({r['final_goal_distance_m']:.2f} m short{said})"
             )
+            ended = f"; ended {r['ending']}" if r["ending"] else ""
             out.append(
-                f"`{r['scene']}` seed {r['seed']}: goal {goal}; touched {what}; "
+                f"`{r['scene']}` seed {r['seed']}: goal {goal}{ended}; touched {what}; "
                 f"min clearance {r['min_clearance_m']:.2f} m; odometric drift at the end "
                 f"{r['final_drift_m']:.2f} m"
             )
-    return out
-
-
-def _figures(here: Path, scenes: dict, drawn: dict[str, list[_Drawn]]) -> list[tuple[Path, str]]:
-    panels = []
-    for name, scene in scenes.items():
-        paths: list[plots.Path2D] = []
-        for d in drawn[name]:
-            paths.append(plots.Path2D(d.true_xy, "true", "tab:green"))
-            paths.append(plots.Path2D(d.odom_xy, "odometric", "tab:orange", "--", 1.0))
-        flies = next((d.flies for d in drawn[name] if d.flies is not None), None)
-        panels.append((name, scene, paths, flies))
-    out = []
-    for name, scene, paths, flies in panels:
-        out.append(
-            (
-                plots.map_figure(
-                    here / f"{name}.png",
-                    scene,
-                    [
-                        plots.MapPanel(
-                            f"{name}: {len(drawn[name])} seeds",
-                            paths=tuple(paths),
-                            flies=flies,
-                            flies_label="obstacle flies (seed 0)",
-                        )
-                    ],
-                ),
-                f"`{name}`: true (green) and odometric (orange, dashed) trajectories of every "
-                "seed; purple: the obstacle flies of seed 0 over the run (paper Fig. 7/8); "
-                "hatched: untextured, dashed outline: sonar-absorbing",
-            )
-        )
-    curve_panels = []
-    for name in scenes:
-        curve_panels.append(
-            (
-                f"{name}: clearance (m)",
-                [plots.Curve(name, tuple((d.clearance_t, d.clearance) for d in drawn[name]))],
-            )
-        )
-    drift = [
-        plots.Curve(
-            name,
-            tuple((d.t, np.hypot(*(d.true_xy - d.odom_xy).T)) for d in drawn[name]),
-        )
-        for name in scenes
-    ]
-    curve_panels.append(("odometric position error (m)", drift))
-    out.append(
-        (
-            plots.curves_figure(
-                here / "curves.png",
-                curve_panels,
-                title="Clearance to the nearest obstacle, and odometric drift (thin: seeds)",
-            ),
-            "Clearance (distance to the nearest obstacle minus the robot's radius; below 0: "
-            "collision) and the distance between the true and odometric positions, over time",
-        )
-    )
     return out

@@ -23,9 +23,10 @@ class PlannerConfig:
     extent: float = param(
         20.0,
         help="side of the square grid over the odometric frame (centred between start and "
-        "goal): its border is an obstacle, so a grid much larger than the mission lets the "
-        "harmonic field prefer wide detours around the scene to gaps between obstacles; "
-        "14 m on corridor/clutter stopped those but saturated U near 1 and stalled the robot",
+        "goal). Its border is an obstacle: a grid much larger than the mission lets the "
+        "harmonic field prefer wide detours round the scene to gaps between obstacles, and "
+        "a grid as small as 14 m on corridor and clutter saturates U near 1, where the "
+        "gradient is too flat to steer by",
         unit="m",
         min=0.5,
     )
@@ -44,10 +45,10 @@ class PlannerConfig:
     warm_start_sweeps: int = param(
         5000,
         help="before the first tick, the obstacle-free field is relaxed until a sweep changes "
-        "U by at most relax_tolerance, or this many sweeps (~3100 on 200×200, 0.1–0.3 s): "
-        "started from its log-distance guess, the field far from the goal took hundreds of "
-        "ticks to settle, and meanwhile its direction at the robot swung round, which turned "
-        "the robot a full circle in place at the start of a corridor run (0 = no warm start)",
+        "U by at most relax_tolerance, or this many sweeps (~3100 on 200×200, 0.1–0.3 s). "
+        "From its log-distance guess alone, the field far from the goal needs hundreds of "
+        "ticks to settle, and meanwhile its direction at the robot swings round: a full turn "
+        "in place at the start of a corridor run (0 = no warm start)",
         min=0,
         max=10_000_000,
     )
@@ -85,9 +86,13 @@ class PlannerConfig:
         0.3, help="radius of the robot's footprint: obstacles are inflated by it", unit="m", min=0.0
     )
     inflation_margin: float = param(
-        0.1,
-        help="added to robot_radius when inflating obstacles: room for the stereo depth error "
-        "of the obstacle flies, the grid's quantisation and odometric drift",
+        0.05,
+        help="added to robot_radius when inflating obstacles (the stated clearance): room for "
+        "odometric drift and the robot's swing. Cells are inflated by whole cells along the "
+        "axes, so a passage whose walls are mapped at their faces keeps a free channel when "
+        "it is at least (2·floor((robot_radius + this) / cell_size) + 3) cells wide: 0.9 m "
+        "with the defaults, which leave 4 free cells across a 1.2 m passage (0.1 would "
+        "leave 2, and a wall cell mapped one cell off closes it)",
         unit="m",
         min=0.0,
     )
@@ -102,7 +107,7 @@ class PlannerConfig:
         0.1,
         help="weight of an obstacle cell among a free cell's four neighbours in the "
         "relaxation: 1 = Dirichlet obstacles (U = 1 on them, the paper's form); below 1 a "
-        "Robin boundary (towards reflecting as it falls) under which U no longer decays "
+        "Robin boundary (towards reflecting as it falls) under which U does not decay "
         "exponentially along a corridor, so a narrow passage to the goal is not outweighed "
         "by a wide detour (U stays harmonic: no local minima; border 1 and goal 0 remain). "
         "With the true obstacles of the corridor and clutter scenes, relaxed to convergence, "
@@ -135,8 +140,8 @@ class PlannerConfig:
         help="remembered obstacle cells nearer than this to the robot are never cleared as "
         "seen free: close up, an obstacle fills the view, lies nearer than the depths the "
         "engine searches (engine.d_min + the camera's mount) and loses its flies, which is "
-        "no evidence that it has gone (0 = off; 1.0 stopped cleared-box collisions on "
-        "clutter but also kept phantom cells near the goal, which stalled the robot)",
+        "no evidence that it has gone (0 = off; at 1.0 on clutter no box is cleared into a "
+        "collision, but phantom cells near the goal are kept too and stall the robot)",
         unit="m",
         min=0.0,
     )
@@ -145,7 +150,7 @@ class PlannerConfig:
         help="a sonar echo nearer than this marks the cells along its arc (the range, across "
         "the cone) as obstacles at once, without confirmation: near the robot and beside the "
         "cameras' view the flies see nothing (nearer than engine.d_min, or not in the "
-        "images), and a robot turning towards the goal swept into obstacles it had never "
+        "images), and a robot turning towards the goal sweeps into obstacles it has never "
         "seen (0 = obstacles from the flies only, as in the paper)",
         unit="m",
         min=0.0,
@@ -158,10 +163,27 @@ class PlannerConfig:
         help="obstacle flies are mapped, and cells seen free, only as far as one pixel of "
         "disparity spans at most this much depth (Z²/(focal·baseline)): 4.7 m at 320×240 "
         "with the default rig; at 640×480 (6.7 m) view_range bounds it. Farther away a "
-        "fly's depth is too coarse to place a cell: boxes became blobs stretched along the "
-        "view that closed the corridor (0 = map up to view_range)",
+        "fly's depth is too coarse to place a cell: boxes turn into blobs stretched along "
+        "the view that close the corridor (0 = map up to view_range)",
         unit="m",
         min=0.0,
+    )
+    full_weight_depth_error: float = param(
+        0.15,
+        help="an obstacle fly counts as one fly in the density while its depth error (one "
+        "pixel of disparity, Z²/(focal·baseline)) is at most this, and as (this / error) of "
+        "one beyond: at 320×240 with the default rig a fly at 2.1 m counts 1, at 4 m 0.28, "
+        "so coarse far flies smeared along the view need several times their number to "
+        "make a cell dense (0 = every fly counts 1, as in the paper)",
+        unit="m",
+        min=0.0,
+    )
+    see_through: bool = param(
+        True,
+        help="cells on the line of sight from the robot to an obstacle fly, nearer than the "
+        "fly's depth less its depth error and one cell, are looked through: a cell more fly "
+        "weight looks through than lies in is free this update (needs "
+        "full_weight_depth_error above 0)",
     )
     max_linear_speed: float = param(0.5, help="maximum forward speed", unit="m/s", min=0.0)
     max_angular_speed: float = param(
@@ -169,8 +191,7 @@ class PlannerConfig:
         help="maximum turn rate. The simulated odometry's heading noise grows with the turn "
         "rate, so the heading variance of a turn grows with rate × angle: on corridor the "
         "robot turns ~10.7 rad a run (most of it at the start, while the walls come into "
-        "view), ∫ω²dt 6.9 rad²/s at 1 rad/s and 4.2 at 0.5, and the true goal was reached on "
-        "3 and 4 of 5 seeds",
+        "view): ∫ω²dt is 6.9 rad²/s at 1 rad/s and 4.2 at 0.5",
         unit="rad/s",
         min=0.0,
     )
@@ -182,8 +203,8 @@ class PlannerConfig:
         help="heading error beyond which the robot turns in place (no forward speed); below "
         "it the forward speed falls from the maximum (facing the direction) to 0 at this error. "
         "Below the cameras' half field of view (32.6° for the bundled rig), so the robot "
-        "drives only towards what it has in view: at 60° it swept into obstacles beside the "
-        "view while turning towards the goal",
+        "drives only towards what it has in view (at 60° it sweeps into obstacles beside "
+        "the view while turning towards the goal)",
         unit="deg",
         min=1.0,
         max=180.0,
@@ -241,8 +262,12 @@ class PlannerConfig:
         min=0.0,
     )
     stuck_time: float = param(
-        20.0,
-        help="time without progress towards the goal after which the status is STUCK",
+        60.0,
+        help="time without progress towards the goal after which the status is STUCK (and "
+        "a closed loop ends stuck_timeout later): longer than the scenes' detours, in which "
+        "the distance to the goal grows. On clutter, a robot that goes round the outside of "
+        "the walls is 12.8 m from the goal at the walls' far corner, 2.8 m farther than at "
+        "the start; at 20 s the closed loop ends 2 of 3 such runs there",
         unit="s",
         min=0.0,
     )
@@ -252,6 +277,44 @@ class PlannerConfig:
         unit="m",
         min=0.0,
     )
+    stuck_timeout: float = param(
+        10.0,
+        help="a closed-loop simulation ends once the planner has reported STUCK for this "
+        "long without a break (its status goes into the summary and the log's metadata)",
+        unit="s",
+        min=0.0,
+    )
+    cut_off_time: float = param(
+        1.0,
+        help="how long the map must cut the robot off from the goal (no free cells connect "
+        "them) before the first recovery: a phantom cell that closes a passage for a tick "
+        "or two is cleared by the next views",
+        unit="s",
+        min=0.0,
+    )
+    look_around_deg: float = param(
+        360.0,
+        help="first recovery: the robot turns on the spot through this angle, so the cameras "
+        "see round it and clear what they see free",
+        unit="deg",
+        min=0.0,
+        max=3600.0,
+    )
+    stale_keep_distance: float = param(
+        0.5,
+        help="second recovery: remembered obstacle cells farther than this from every cell of "
+        "the latest update's evidence (dense in view, or a sonar echo) are forgotten",
+        unit="m",
+        min=0.0,
+    )
+    backup_distance: float = param(
+        0.3,
+        help="third recovery: the robot backs up this far (not if a remembered obstacle lies "
+        "within robot_radius + inflation_margin of where it would end)",
+        unit="m",
+        min=0.0,
+    )
+    backup_speed: float = param(0.15, help="speed of the back-up", unit="m/s", min=0.0)
     path_max_steps: int = param(
         500, help="bound on the gradient-descent steps of the planned path", min=1, max=1_000_000
     )

@@ -69,6 +69,15 @@ def centred_origin(centre_xy: tuple[float, float], extent: float) -> tuple[float
     return (centre_xy[0] - extent / 2.0, centre_xy[1] - extent / 2.0)
 
 
+def log_distance_guess(geometry: GridGeometry, goal: tuple[float, float]) -> np.ndarray:
+    """A start of the relaxation close to the obstacle-free solution: log(1 + distance from
+    the goal in cells), scaled to at most 1, so the robot has a descent direction from the
+    first tick (the relaxation refines it)."""
+    x, y = geometry.centres()
+    guess = np.log1p(np.hypot(x - goal[0], y - goal[1]) / geometry.cell_size)
+    return guess / guess.max()
+
+
 def bilinear(field: np.ndarray, geometry: GridGeometry, x: float, y: float) -> float:
     """``field`` (H, W), sampled at cell centres, bilinearly interpolated at (x, y); clamped
     to the outermost cell centres."""

@@ -30,12 +30,14 @@ def fly_counts(geometry: GridGeometry, points_xy: np.ndarray) -> np.ndarray:
 
 def box_sum(counts: np.ndarray, half_width: int) -> np.ndarray:
     """Sum of ``counts`` over the (2r+1) x (2r+1) window around each cell (window clipped
-    at the grid edges), through an integral image of the zero-padded counts."""
+    at the grid edges), through an integral image of the zero-padded counts (int64 for
+    integer counts, float64 for weights)."""
+    dtype = np.int64 if np.issubdtype(counts.dtype, np.integer) else np.float64
     if half_width <= 0:
-        return counts.astype(np.int64, copy=True)
+        return counts.astype(dtype, copy=True)
     k = 2 * half_width + 1
     h, w = counts.shape
-    integral = np.zeros((h + k, w + k), dtype=np.int64)
+    integral = np.zeros((h + k, w + k), dtype=dtype)
     integral[1:, 1:] = np.pad(counts, half_width).cumsum(axis=0).cumsum(axis=1)
     return integral[k:, k:] - integral[:h, k:] - integral[k:, :w] + integral[:h, :w]
 

@@ -8,21 +8,16 @@ grid keeps its values between ticks: obstacle changes only re-pin cells and the 
 sweeps carry the change through, as the paper's continually iterated function does.
 
 ``obstacle_weight`` (1: the paper's form) is the weight an obstacle cell has in the mean of
-its free neighbours. With Dirichlet obstacles (weight 1), 1 − U decays like exp(−π x / w)
-along a channel of free width w (Connolly & Grupen's known weakness of Dirichlet harmonic
-fields): in the corridor scene the goal's pull 10 m down the 2.2 m channel (~1e-7) is
-weaker than that of the detour out of the back and round a wall, and −∇U at the start
-points backwards. A weight a < 1 is a Robin boundary: the decay per cell along a one-cell
-channel falls from r = 0.27 (a = 1) to r = 1 + a − √(a² + 2a) (0.78 at a = 0.03), so the
-shorter way wins. Every free cell is still a weighted mean of its neighbours with positive
-weights: the discrete maximum principle holds and the only minimum is the goal.
+its free neighbours: below 1, a Robin boundary under which 1 − U does not decay
+exponentially along a channel, so a narrow passage to the goal is not outweighed by a wide
+detour (docs/navigation.md gives the decay rates). The only minimum is still the goal.
+The obstacle memory is :class:`~flylog.planner.map.ObstacleMap`; a goal the map cuts off
+starts the recoveries of :mod:`flylog.planner.recovery`.
 """
 
 from __future__ import annotations
 
-import enum
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -30,8 +25,17 @@ from flylog.errors import ConfigError
 from flylog.geometry import Pose2D
 from flylog.planner import obstacles as obs
 from flylog.planner.config import PlannerConfig
-from flylog.planner.grid import GridGeometry, bilinear, centred_origin, gradient_field
-from flylog.planner.relax import sor_sweeps
+from flylog.planner.grid import (
+    GridGeometry,
+    bilinear,
+    centred_origin,
+    gradient_field,
+    log_distance_guess,
+)
+from flylog.planner.map import ObstacleMap
+from flylog.planner.reach import any_within, reachable_from
+from flylog.planner.recovery import Recovery, RecoverySequence, RecoverySettings
+from flylog.planner.relax import RelaxEnd, RelaxResult, sor_sweeps
 from flylog.planner.steering import (
     Command,
     PathEnd,
@@ -43,20 +47,6 @@ from flylog.planner.steering import (
     unicycle_command,
 )
 from flylog.planner.trace import descend_on_grid
-
-
-class RelaxEnd(enum.Enum):
-    """Which bound stopped :meth:`HarmonicPlanner.relax_until`."""
-
-    CONVERGED = "converged"  # the last sweep changed no cell by more than the tolerance
-    MAX_SWEEPS = "max_sweeps"  # the sweep budget ran out first
-
-
-@dataclass(frozen=True, slots=True)
-class RelaxResult:
-    sweeps: int
-    max_change: float
-    end: RelaxEnd
 
 
 class HarmonicPlanner:
@@ -90,16 +80,11 @@ class HarmonicPlanner:
         self._border = np.zeros((n, n), dtype=bool)
         self._border[[0, -1], :] = True
         self._border[:, [0, -1]] = True
-        self._remembered = np.zeros((n, n), dtype=bool)  # detected, before inflation
-        self._seen_free_count = np.zeros((n, n), dtype=np.int32)
-        self._seen_dense_count = np.zeros((n, n), dtype=np.int32)
-        self._obstacles = np.zeros((n, n), dtype=bool)  # inflated
-        self._obstacle_values = np.zeros((n, n))  # Dirichlet values on self._obstacles
-        self._inflated_from = self._remembered.copy()  # what those two were made from
+        self.map = ObstacleMap(config, self.geometry)
         self._fixed = np.zeros((n, n), dtype=bool)
         # the relaxed state: obstacle cells hold obstacle_weight × their value, so the
         # sweep's weighted mean needs no per-neighbour weights (see obs.neighbour_factor)
-        self._u = self._initial_guess()
+        self._u = log_distance_guess(self.geometry, self.goal)
         self._factor: np.ndarray | None = None  # None: the plain mean (obstacle_weight 1)
         self._weighted = np.zeros((n, n), dtype=bool)  # cells holding weight × value
         self._field_cache: np.ndarray | None = None
@@ -107,6 +92,8 @@ class HarmonicPlanner:
         self._monitor = ProgressMonitor(config.stuck_time, config.stuck_progress)
         self._heading = SmoothedDirection(config.heading_smoothing)
         self._grad_cache: tuple[np.ndarray, np.ndarray] | None = None
+        self._recoveries = RecoverySequence(RecoverySettings.of(config))
+        self._reachable: tuple[int, np.ndarray] | None = None  # (map version, goal's region)
 
     @classmethod
     def centred_on(
@@ -134,16 +121,21 @@ class HarmonicPlanner:
     @property
     def obstacle_mask(self) -> np.ndarray:
         """(H, W) bool, read-only: inflated obstacle cells (Dirichlet >= 1, border excluded)."""
-        view = self._obstacles.view()
+        view = self.map.obstacles.view()
         view.flags.writeable = False
         return view
 
     @property
     def detected_mask(self) -> np.ndarray:
         """(H, W) bool, read-only: remembered obstacle cells before inflation."""
-        view = self._remembered.view()
+        view = self.map.remembered.view()
         view.flags.writeable = False
         return view
+
+    @property
+    def recovery(self) -> Recovery:
+        """The recovery in force (NONE while the goal is reachable in the map)."""
+        return self._recoveries.phase
 
     # ----------------------------------------------------------------- obstacles
 
@@ -154,65 +146,43 @@ class HarmonicPlanner:
         half_fov: float,
         view_range: float | None = None,
         sonar_xy: np.ndarray | None = None,
+        focal_baseline: float | None = None,
     ) -> int:
-        """Fold the obstacle flies seen now (points (M, 2) or (M, 3) in odom) into the grid.
-
-        Cells dense inside the view sector for ``confirm_after_views`` updates in a row
-        become obstacles; cells outside the view keep
-        what they were; with ``clear_free_cells``, a remembered cell seen free (in view,
-        not dense, not in a detection's shadow, at least ``clear_min_range`` away)
-        ``clear_after_views`` updates in a row is forgotten. The cells holding a point of
-        ``sonar_xy`` (M, 2) in odom (sonar echoes: :func:`~flylog.planner.obstacles.
-        sonar_arc_points`) become obstacles at once and are not seen free this update.
-        Returns how many inflated obstacle cells changed.
-        """
-        cfg = self.config
-        vr = cfg.view_range if view_range is None else float(view_range)
-        counts = obs.fly_counts(self.geometry, points_odom_xy)
-        # only the cells within the view range of the robot can be seen: work on that window
-        rows, cols = self._window(robot_pose, vr)
-        dense = obs.dense_cells(
-            counts, cfg.cell_size, cfg.density_window_cells, cfg.density_threshold, rows, cols
+        """Fold the obstacle flies seen now (points (M, 2) or (M, 3) in odom) and the sonar
+        echoes' arc points ``sonar_xy`` (M, 2) in odom into the map (:class:`~flylog.
+        planner.map.ObstacleMap`'s rules; ``focal_baseline``, the rig's focal length in
+        pixels times its baseline, weights the flies by their depth error and casts their
+        lines of sight). Returns how many inflated obstacle cells changed."""
+        vr = self.config.view_range if view_range is None else float(view_range)
+        version = self.map.version
+        changed = self.map.update(
+            points_odom_xy, robot_pose, half_fov, vr, sonar_xy, focal_baseline
         )
-        rng, bearing = obs.polar_of_cells(self.geometry, robot_pose, rows, cols)
-        in_view = obs.view_mask(rng, bearing, half_fov, vr)
-        # a cell counts as detected once it has been dense in view confirm_after_views
-        # updates in a row (cells outside the window start counting again)
-        dense_now = dense & in_view
-        count = np.zeros_like(self._seen_dense_count)
-        count[rows, cols] = np.where(dense_now, self._seen_dense_count[rows, cols] + 1, 0)
-        self._seen_dense_count = count
-        detected = dense_now & (count[rows, cols] >= cfg.confirm_after_views)
-        echoed = None
-        if sonar_xy is not None and len(sonar_xy):
-            echoed = obs.fly_counts(self.geometry, sonar_xy) > 0
-        if cfg.clear_free_cells:
-            # a dense cell is not free, and hides what lies behind it, confirmed or not
-            free = obs.seen_free(in_view, dense_now, rng, bearing, half_fov, cfg.cell_size, vr)
-            free &= rng >= cfg.clear_min_range
-            if echoed is not None:
-                free &= ~echoed[rows, cols]
-            seen = np.zeros_like(self._seen_free_count)
-            seen[rows, cols] = np.where(free, self._seen_free_count[rows, cols] + 1, 0)
-            self._seen_free_count = seen
-            self._remembered &= self._seen_free_count < cfg.clear_after_views
-        self._remembered[rows, cols] |= detected
-        if echoed is not None:
-            self._remembered |= echoed
-        before, before_values = self._obstacles, self._obstacle_values
-        self._set_obstacles()
-        changed = int(np.count_nonzero(before != self._obstacles))
-        if changed or not np.array_equal(before_values, self._obstacle_values):
+        if self.map.version != version:
             self._apply_dirichlet()
         return changed
 
     def clear_obstacles(self) -> None:
         """Forget every obstacle (the potential relaxes back over the freed cells)."""
-        self._remembered[:] = False
-        self._seen_free_count[:] = 0
-        self._seen_dense_count[:] = 0
-        self._set_obstacles()
+        self.set_detected(np.zeros(self.geometry.shape, dtype=bool))
+
+    def set_detected(self, detected: np.ndarray) -> None:
+        """Remember exactly the cells of ``detected`` (H, W) bool: a map of known geometry."""
+        self.map.clear()
+        self.map.replace(detected)
         self._apply_dirichlet()
+
+    def goal_cut_off(self, robot_pose: Pose2D) -> bool:
+        """Whether no free cells connect the robot to the goal cell in the map (a robot
+        inside an inflated obstacle asks for the free cells within the inflation of it)."""
+        m = self.map
+        if self._reachable is None or self._reachable[0] != m.version:
+            self._reachable = (m.version, reachable_from(~m.obstacles, self._goal_cell))
+        region = self._reachable[1]
+        cell = self.geometry.cell_of(robot_pose.x, robot_pose.y)
+        if not self.map.obstacles[cell]:
+            return not bool(region[cell])
+        return not any_within(region, cell, math.ceil(self.config.inflation_cells) + 1)
 
     # ----------------------------------------------------------------- relaxation
 
@@ -273,13 +243,17 @@ class HarmonicPlanner:
         speed is scaled down near the goal (``goal_slowdown``) and near remembered obstacles
         (``obstacle_slowdown``, :meth:`clearance`). STUCK when the distance to the goal has
         not improved by ``stuck_progress`` for ``stuck_time`` (the steering command is still
-        given: the caller decides whether to stop)."""
+        given: the caller decides whether to stop), and once the recoveries of a goal cut
+        off in the map are spent (:mod:`flylog.planner.recovery`: zero velocities)."""
         cfg = self.config
         dx, dy = self.goal[0] - robot_pose.x, self.goal[1] - robot_pose.y
         distance = math.hypot(dx, dy)
         if distance <= cfg.goal_tolerance:
             return Command(0.0, 0.0, Status.GOAL_REACHED)
         stuck = self._monitor.update(distance, t)
+        recovering = self._recover(robot_pose, t, stuck)
+        if recovering is not None:
+            return recovering
         if distance <= cfg.goal_approach_distance:
             direction = (dx, dy)
         else:
@@ -302,6 +276,31 @@ class HarmonicPlanner:
         linear *= min(near_goal, near_obstacle)
         return Command(linear, angular, Status.STUCK if stuck else Status.DRIVING)
 
+    def _recover(self, robot_pose: Pose2D, t: float, stuck: bool) -> Command | None:
+        """The recovery's command while the goal is cut off (None: steer along the field)."""
+        cfg, seq = self.config, self._recoveries
+        before = seq.phase
+        phase = seq.step(self.goal_cut_off(robot_pose), t, robot_pose)
+        if phase is Recovery.NONE:
+            if before is not Recovery.NONE:  # the map opened: progress counts from here
+                self._monitor.reset()
+            return None
+        cleared = phase is Recovery.CLEAR_STALE and before is not phase
+        if cleared and self.map.clear_stale(cfg.stale_keep_distance):
+            self._apply_dirichlet()
+        if phase is Recovery.BACK_UP and before is not phase:
+            back = Pose2D(
+                robot_pose.x - cfg.backup_distance * math.cos(robot_pose.theta),
+                robot_pose.y - cfg.backup_distance * math.sin(robot_pose.theta),
+                robot_pose.theta,
+            )
+            room = cfg.robot_radius + cfg.inflation_margin
+            if self.clearance(back.x, back.y, room) < room:
+                seq.skip_backing_up(t, robot_pose)
+        linear, angular = seq.command() or (0.0, 0.0)
+        status = Status.STUCK if stuck or seq.phase is Recovery.EXHAUSTED else Status.DRIVING
+        return Command(linear, angular, status, seq.phase)
+
     def steering_direction(self, robot_pose: Pose2D) -> tuple[float, float]:
         """Where the robot heads (any length): −∇U at the robot, or with ``lookahead`` the
         point that far down the descent path (−∇U if the path ends at once)."""
@@ -322,13 +321,7 @@ class HarmonicPlanner:
     def clearance(self, x: float, y: float, reach: float) -> float:
         """Distance (m) from (x, y) to the nearest remembered obstacle cell's centre, if one
         lies within ``reach``; inf otherwise."""
-        rows, cols = self._window(Pose2D(x, y, 0.0), reach)
-        ii, jj = np.nonzero(self._remembered[rows, cols])
-        if not len(ii):
-            return math.inf
-        cx, cy = self.geometry.centre_of(ii + rows.start, jj + cols.start)
-        d = float(np.min(np.hypot(cx - x, cy - y)))
-        return d if d <= reach else math.inf
+        return self.map.clearance(x, y, reach)
 
     def trace_path(self, robot_pose: Pose2D) -> PlannedPath:
         """Gradient descent from the robot (bounded by ``path_max_steps``), and why it
@@ -340,7 +333,7 @@ class HarmonicPlanner:
         cfg = self.config
         return descend_on_grid(
             self._gradients(),
-            self._obstacles,
+            self.map.obstacles,
             self.geometry,
             (robot_pose.x, robot_pose.y),
             self.goal,
@@ -354,43 +347,26 @@ class HarmonicPlanner:
         return self.trace_path(robot_pose).points
 
     def reset_progress(self) -> None:
-        """Restart stuck detection (e.g. after a new goal)."""
+        """Restart stuck detection and the recoveries (e.g. after a new goal)."""
         self._monitor.reset()
+        self._recoveries.reset()
 
     # ----------------------------------------------------------------- internals
-
-    def _initial_guess(self) -> np.ndarray:
-        """A start close to the obstacle-free solution, log(distance) from the goal, so the
-        robot has a descent direction from the first tick (the relaxation refines it)."""
-        x, y = self.geometry.centres()
-        d = np.hypot(x - self.goal[0], y - self.goal[1]) / self.geometry.cell_size
-        guess = np.log1p(d)
-        return guess / guess.max()
-
-    def _set_obstacles(self) -> None:
-        # most updates remember the same cells (464 of the 600 ticks of replay's 60 s
-        # reference): the inflation and the values are a function of them only
-        if np.array_equal(self._remembered, self._inflated_from):
-            return
-        self._inflated_from = self._remembered.copy()
-        cfg = self.config
-        distance = obs.distance_within(self._remembered, cfg.inflation_cells)
-        self._obstacles = np.isfinite(distance)
-        self._obstacle_values = obs.obstacle_values(distance, cfg.inflation_cells, cfg.escape_rise)
 
     def _apply_dirichlet(self) -> None:
         gi, gj = self._goal_cell
         a = self.config.obstacle_weight
-        self._fixed = self._border | self._obstacles
+        obstacles, values = self.map.obstacles, self.map.values
+        self._fixed = self._border | obstacles
         self._fixed[gi, gj] = True
         self._u[self._border] = 1.0
-        weighted = self._obstacles & ~self._border
+        weighted = obstacles & ~self._border
         weighted[gi, gj] = False
         # freed obstacle cells restart from U = 1, their value as the obstacle's skin: the
         # state holds a × value there (0.1 at a = 0.1), which as a free cell would be a deep
         # transient sink next to the obstacle, drawing the robot to it until relaxed away
         self._u[self._weighted & ~weighted] = 1.0
-        self._u[weighted] = a * self._obstacle_values[weighted]
+        self._u[weighted] = a * values[weighted]
         # freed obstacle cells may hold values above 1, which no free cell has at convergence
         np.minimum(self._u, 1.0, out=self._u, where=~self._fixed)
         self._u[gi, gj] = 0.0
@@ -408,20 +384,8 @@ class HarmonicPlanner:
         if self._factor is None:
             return self._u
         if self._field_cache is None:
-            self._field_cache = np.where(self._weighted, self._obstacle_values, self._u)
+            self._field_cache = np.where(self._weighted, self.map.values, self._u)
         return self._field_cache
-
-    def _window(self, pose: Pose2D, reach: float) -> tuple[slice, slice]:
-        """Rows and cols of the cells whose centres may lie within ``reach`` of the pose."""
-        ox, oy = self.geometry.origin
-        c, n = self.geometry.cell_size, self.geometry.cells
-
-        def span(centre: float) -> slice:
-            lo = math.floor((centre - reach) / c - 0.5)
-            hi = math.ceil((centre + reach) / c - 0.5) + 1
-            return slice(min(max(lo, 0), n), min(max(hi, 0), n))
-
-        return span(pose.y - oy), span(pose.x - ox)
 
     def _gradients(self) -> tuple[np.ndarray, np.ndarray]:
         if self._grad_cache is None:

@@ -13,12 +13,29 @@ loop, in the same order.
 
 from __future__ import annotations
 
+import enum
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numba
 import numpy as np
 
 from flylog.planner.config import Relaxation
+
+
+class RelaxEnd(enum.Enum):
+    """Which bound stopped :meth:`~flylog.planner.planner.HarmonicPlanner.relax_until`."""
+
+    CONVERGED = "converged"  # the last sweep changed no cell by more than the tolerance
+    MAX_SWEEPS = "max_sweeps"  # the sweep budget ran out first
+
+
+@dataclass(frozen=True, slots=True)
+class RelaxResult:
+    sweeps: int
+    max_change: float
+    end: RelaxEnd
+
 
 SweepFn = Callable[[np.ndarray, np.ndarray, float, int, "np.ndarray | None"], float]
 

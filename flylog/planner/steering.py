@@ -11,6 +11,7 @@ import numpy as np
 
 from flylog.geometry import Pose2D
 from flylog.geometry.poses import wrap_angle
+from flylog.planner.recovery import Recovery
 
 # Below this gradient norm (potential units per metre) the descent direction is noise.
 FLAT_GRADIENT = 1e-12
@@ -31,6 +32,7 @@ class Command:
     linear: float  # m/s, forward
     angular: float  # rad/s, counter-clockwise
     status: Status
+    recovery: Recovery = Recovery.NONE  # the recovery these velocities come from
 
 
 class PathEnd(enum.Enum):

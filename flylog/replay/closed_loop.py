@@ -2,7 +2,9 @@
 
 The same pipeline and virtual clock as replay, fed with the records as the simulator
 produces them; the command is the planner's newest. Implements the simulator's Driver
-protocol plus ``observe`` (records in), ``finish`` (flush at the end) and ``finished``.
+protocol plus ``observe`` (records in), ``finish`` (flush at the end), ``finished`` and
+``status``. The run is finished when the planner reports the goal reached, or once it has
+reported STUCK for ``planner.stuck_timeout`` seconds without a break.
 """
 
 from __future__ import annotations
@@ -31,6 +33,8 @@ class PlannerDriver:
         # the simulator writes odom → base_link itself
         self.pipeline = FlyPipeline(config, rig, start, goal, write, write_tf=False)
         self.clock = VirtualClock(self.pipeline, clock_config(config, round(1e9 / rig.frame_rate)))
+        self._stuck_since: float | None = None  # s: when the planner's STUCK began
+        self._t = 0.0
 
     def observe(self, record: object) -> None:
         self.clock.feed(record)
@@ -40,16 +44,45 @@ class PlannerDriver:
         # compute only up to just before t.
         self.clock.advance_to(round(t * 1e9) - 1)
         cmd = self.pipeline.command
-        if cmd.status is Status.GOAL_REACHED:
+        self._t = t
+        if cmd.status is not Status.STUCK:
+            self._stuck_since = None
+        elif self._stuck_since is None:
+            self._stuck_since = t
+        if cmd.status is Status.GOAL_REACHED or self.finished:
             return 0.0, 0.0
         return cmd.linear, cmd.angular
 
     @property
+    def stuck_for(self) -> float:
+        """Seconds the planner has reported STUCK without a break (0 when it is not)."""
+        return 0.0 if self._stuck_since is None else self._t - self._stuck_since
+
+    @property
     def finished(self) -> bool:
-        return self.pipeline.command.status is Status.GOAL_REACHED
+        if self.pipeline.command.status is Status.GOAL_REACHED:
+            return True
+        return self._stuck_since is not None and (
+            self.stuck_for >= self.config.planner.stuck_timeout
+        )
+
+    @property
+    def status(self) -> str:
+        """How the run stands: the planner's status ('goal_reached', 'stuck', 'driving')."""
+        return self.pipeline.command.status.value
+
+    @property
+    def ending(self) -> str:
+        """Why the run ends (or would end now): 'goal_reached', 'stuck' (STUCK for
+        planner.stuck_timeout) or 'duration' (the simulation's time ran out)."""
+        if self.pipeline.command.status is Status.GOAL_REACHED:
+            return "goal_reached"
+        return "stuck" if self.finished else "duration"
 
     def finish(self, end_ns: int) -> dict[str, str]:
-        """Run the clock to the end; the metadata to store, as replay stores it."""
+        """Run the clock to the end; the metadata to store, as replay stores it (plus the
+        planner's status and the run's ending when the simulation stopped)."""
+        status, ending, stuck_for = self.status, self.ending, self.stuck_for
         stats = self.clock.finish(end_ns)
         return {
             "config": json.dumps(to_mapping(self.config)),
@@ -57,4 +90,7 @@ class PlannerDriver:
             "evaluations": str(stats.evaluations),
             "frames": str(stats.frames),
             "closed_loop": "true",
+            "status": status,
+            "ending": ending,
+            "stuck_for": repr(stuck_for),
         }

@@ -101,6 +101,7 @@ class PlannerJobs:
                 self.rig.half_fov,
                 view_range=self._mapping_range,
                 sonar_xy=self._echoes(tick.sonar),
+                focal_baseline=self.rig.focal_px * self.rig.baseline,
             )
         change = self.planner.relax()
         pose, t_ns = tick.odom.pose, tick.t_ns

@@ -52,7 +52,16 @@ class ClosedLoopDriver(Driver, Protocol):
 
     @property
     def finished(self) -> bool:
-        """True once the driver is done (goal reached): the simulation ends there."""
+        """True once the driver is done (goal reached, or stuck for its timeout): the
+        simulation ends there."""
+
+    @property
+    def status(self) -> str:
+        """The driver's status for the summary ('goal_reached', 'stuck', 'driving')."""
+
+    @property
+    def ending(self) -> str:
+        """Why the run ends: 'goal_reached', 'stuck' or 'duration'."""
 
     def observe(self, record: object) -> None:
         """A sensor record was just produced."""
@@ -83,6 +92,8 @@ class SimulationSummary:
     bytes: int
     wall_seconds: float
     goal_distance: float  # true distance to the goal at the end (m)
+    status: str | None = None  # closed loop: the planner's status at the end
+    ending: str | None = None  # closed loop: 'goal_reached', 'stuck' or 'duration'
 
 
 def effective_scene(scene: Scene, options: SimulationOptions) -> Scene:
@@ -132,7 +143,8 @@ def simulate(
 
     The scene's driving plan drives the robot unless ``make_driver(scene, write)`` builds a
     closed-loop driver: it then receives every sensor record as it is produced, writes its
-    outputs into the same log, and ends the simulation when it has finished (goal reached).
+    outputs into the same log, and ends the simulation when it has finished (goal reached,
+    or stuck for its timeout); the summary then carries its status and why the run ended.
     ``on_frame(done, total)`` reports progress in stereo frames.
     """
     from flylog.sim.render import Renderer
@@ -216,7 +228,7 @@ def simulate(
                     closed.observe(odom)
                 command = driver.command(t_ns / 1e9, poses.odom)
                 if closed is not None and closed.finished:
-                    break  # the goal is reached: the log ends here
+                    break  # goal reached, or stuck for the timeout: the log ends here
             elif kind == "sonar":
                 ranges = sonar_ranges(scene, sonar_cfg, poses.true, sonar_rng)
                 reading = SonarReading(
@@ -244,7 +256,9 @@ def simulate(
                 frames += 1
                 if on_frame is not None:
                     on_frame(frames, total_frames)
+        status = ending = None
         if closed is not None:
+            status, ending = closed.status, closed.ending
             log.add_metadata(contract.REPLAY_METADATA, closed.finish(now_ns))
         log.add_metadata(contract.TRAJECTORIES_METADATA, series.metadata())
     gx, gy = scene.goal
@@ -256,6 +270,8 @@ def simulate(
         bytes=output.stat().st_size,
         wall_seconds=time.perf_counter() - t_wall,
         goal_distance=math.hypot(poses.true.x - gx, poses.true.y - gy),
+        status=status,
+        ending=ending,
     )
 
 

@@ -74,7 +74,7 @@ def test_latency_rows_and_delays(results):
 def test_closed_loop_reports_each_scene(results):
     _, done, _ = results
     rows = done["closed-loop"].table.rows
-    assert [r["scene"] for r in rows] == ["corridor", "clutter"]
+    assert [r["scene"] for r in rows] == ["corridor", "clutter", "doorways", "doorways 192×144"]
     assert all(r["planner_goal"].n == r["success"].n == 1 for r in rows)
     for r in done["closed-loop"].runs:
         # 1 s cannot reach a goal 10 m away

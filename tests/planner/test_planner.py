@@ -384,9 +384,7 @@ def _corridor_planner(
     boxes.append((9.0, -0.95, 0.25, 0.25))
     for cx, cy, hx, hy in boxes:
         walls |= (np.abs(x - cx) < hx) & (np.abs(y - cy) < hy)
-    p._remembered[:] = walls
-    p._set_obstacles()
-    p._apply_dirichlet()
+    p.set_detected(walls)
     assert p.relax_until(1e-13, 20_000, chunk=100).end is RelaxEnd.CONVERGED
     return p
 
@@ -411,18 +409,21 @@ def test_dirichlet_obstacles_send_the_robot_out_of_the_corridor_a_small_weight_t
 @pytest.mark.parametrize("kind", list(Relaxation), ids=lambda k: k.value)
 def test_weighted_obstacles_keep_u_harmonic_without_local_minima(kind):
     cfg = PlannerConfig(
-        extent=6.0, cell_size=0.1, obstacle_weight=0.05, relaxation=kind, escape_rise=0.1
+        extent=6.0,
+        cell_size=0.1,
+        obstacle_weight=0.05,
+        relaxation=kind,
+        escape_rise=0.1,
+        inflation_margin=0.1,  # the descent passes within goal_tolerance of the goal point
     )
     p = HarmonicPlanner.centred_on(cfg, (0.0, 0.0), (2.0, 0.0))
     x, y = p.geometry.centres()
-    p._remembered[:] = (np.abs(x - 1.0) < 0.05) & (np.abs(y) < 1.0)  # a wall across
-    p._set_obstacles()
-    p._apply_dirichlet()
+    p.set_detected((np.abs(x - 1.0) < 0.05) & (np.abs(y) < 1.0))  # a wall across
     assert p.relax_until(1e-12, 50_000, chunk=100).end is RelaxEnd.CONVERGED
     u, obstacles = p.potential.astype(np.float64), p.obstacle_mask
     # U is the obstacles' own values on them (skin 1), below 1 in free space
     np.testing.assert_array_equal(
-        u[obstacles & ~p._border], p._obstacle_values[obstacles & ~p._border].astype(np.float32)
+        u[obstacles & ~p._border], p.map.values[obstacles & ~p._border].astype(np.float32)
     )
     free = ~obstacles & ~p._border
     assert u[free].max() < 1.0 and u[free].min() == 0.0
@@ -449,9 +450,7 @@ def test_lookahead_steers_at_the_point_that_far_down_the_descent_path():
     cfg = PlannerConfig(**{**SMALL.__dict__, "obstacle_weight": 0.03, "lookahead": 0.5})
     p = HarmonicPlanner.centred_on(cfg, (0.0, 0.0), (2.0, 0.0))
     x, y = p.geometry.centres()
-    p._remembered[:] = (np.abs(x - 0.8) < 0.05) & (np.abs(y) < 1.0)  # a wall across
-    p._set_obstacles()
-    p._apply_dirichlet()
+    p.set_detected((np.abs(x - 0.8) < 0.05) & (np.abs(y) < 1.0))  # a wall across
     assert p.relax_until(1e-10, 20_000).end is RelaxEnd.CONVERGED
     pose = Pose2D(0.8, -1.5, 0.0)  # below the wall's end: the path bends round it
     path = p.trace_path(pose).points
@@ -463,9 +462,7 @@ def test_lookahead_steers_at_the_point_that_far_down_the_descent_path():
     plain = HarmonicPlanner.centred_on(
         PlannerConfig(**{**cfg.__dict__, "lookahead": 0.0}), (0.0, 0.0), (2.0, 0.0)
     )
-    plain._remembered[:] = p.detected_mask
-    plain._set_obstacles()
-    plain._apply_dirichlet()
+    plain.set_detected(p.detected_mask)
     plain._u[:] = p._u
     np.testing.assert_allclose(plain.steering_direction(pose), (-gx, -gy), atol=0)
     assert abs(math.atan2(dy, dx) - math.atan2(-gy, -gx)) > 0.03

@@ -63,3 +63,32 @@ def test_config_without_closed_loop_is_refused(tmp_path):
         cli, ["simulate", str(SCENES / "corridor.toml"), "-o", str(tmp_path / "x.mcap"),
               "--config", str(config)])  # fmt: skip
     assert result.exit_code == 2 and "--config goes with --drive planner" in result.output
+
+
+def test_a_run_stuck_for_the_timeout_ends_with_its_status(tmp_path):
+    # no progress can count (stuck_progress 100 m): STUCK from 0.5 s, over at 1.0 s of 4 s
+    config = tmp_path / "stuck.toml"
+    config.write_text(
+        "[engine]\nflies = 600\n[planner]\nstuck_time = 0.5\nstuck_progress = 100.0\n"
+        "stuck_timeout = 0.5\n"
+    )
+    out = tmp_path / "stuck.mcap"
+    args = ["simulate", str(SCENES / "corridor.toml"), "-o", str(out), "--duration", "4",
+            "--resolution", "96x72", "--drive", "planner", "--config", str(config)]  # fmt: skip
+    result = CliRunner().invoke(cli, args)
+    assert result.exit_code == 0, result.output
+    assert "planner stuck, run ended by stuck" in result.output
+    reader = open_log(out)
+    meta = reader.metadata()[contract.REPLAY_METADATA]
+    assert meta["status"] == "stuck" and meta["ending"] == "stuck"
+    assert float(meta["stuck_for"]) >= 0.5
+    last = max(m.log_time_ns for m in reader.messages([contract.ODOM]))
+    assert 1.0e9 <= last <= 1.2e9  # ended at the timeout, not at --duration
+    statuses = [m.value["status"] for m in reader.messages([contract.PLANNER_COMMAND])]
+    assert statuses[-1] == "stuck" and "driving" in statuses
+
+
+def test_a_run_that_reaches_neither_goal_nor_timeout_ends_at_its_duration(tmp_path):
+    out = _run(tmp_path, "short.mcap")
+    meta = open_log(out).metadata()[contract.REPLAY_METADATA]
+    assert meta["ending"] == "duration" and meta["status"] == "driving"
