@@ -23,7 +23,7 @@ from mcap.summary import Summary
 from flylog.errors import LogError
 from flylog.io import contract
 from flylog.io.chunks import indexed_messages
-from flylog.io.decode import Decoding, schema_name
+from flylog.io.decoding import Decoding, schema_name
 from flylog.io.indexed import indexed_attachments, indexed_metadata
 from flylog.io.pairing import pair_stereo
 from flylog.io.readahead import read_ahead as read_ahead_of
