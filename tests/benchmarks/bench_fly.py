@@ -139,6 +139,59 @@ def _fitness_figures(pair: StereoPair, rig: StereoRig) -> list[dict]:
     ]
 
 
+def _similarity_figures(pair: StereoPair, rig: StereoRig) -> list[dict]:
+    """ZNCC's fitness evaluations per second against the zero-mean SSD's, the same flies in
+    the same run (7×7 RGB, 640×480): all at once in parallel, and in serial batches of 2500
+    as a generation's newcomers are scored; and whole generations (5000 flies, every
+    operator) with each measure."""
+    from flylog.fly import Similarity
+
+    rng = np.random.default_rng(0)
+    n = 1_000_000
+    u, v = rng.uniform(3, rig.width - 4, n), rng.uniform(3, rig.height - 4, n)
+    xyz = rig.backproject(u, v, 1.0 / rng.uniform(1 / 20.0, 1 / 0.5, n))
+    out = np.empty(n)
+    index = np.arange(n)
+    small = np.arange(2500)
+    rates: dict[tuple[Similarity, str], float] = {}
+    for similarity in Similarity:
+        fitness_numba(pair.left, pair.right, xyz[:1000], rig, 7, 1.0, similarity=similarity)
+        rates[similarity, "parallel"] = _best_rate(
+            lambda s=similarity: fitness_numba(
+                pair.left, pair.right, xyz, rig, 7, 1.0, similarity=s, index=index, out=out
+            ),
+            n,
+            5,
+        )
+        rates[similarity, "batch"] = _best_rate(
+            lambda s=similarity: fitness_numba(
+                pair.left, pair.right, xyz, rig, 7, 1.0, similarity=s, index=small, out=out
+            ),
+            2500,
+            50,
+        )
+        engine = FlyEngine(EngineConfig(similarity=similarity), rig, np.random.default_rng(0))
+        engine.set_images(pair)
+        engine.steps(20)
+        rates[similarity, "generations"] = _best_rate(lambda e=engine: e.steps(100), 100, 3)
+    zssd, zncc = Similarity.ZSSD, Similarity.ZNCC
+    labels = {
+        "parallel": ("fitness evaluations, numba parallel, zncc (7×7 RGB, 640×480)", "eval/s"),
+        "batch": ("fitness evaluations, numba serial batches of 2500, zncc", "eval/s"),
+        "generations": ("generations, 5000 flies, every operator, zncc", "gen/s"),
+    }
+    return [
+        {
+            "name": name,
+            "value": rates[zncc, key],
+            "unit": unit,
+            "reference": "the same with zssd",
+            "ratio": rates[zncc, key] / rates[zssd, key],
+        }
+        for key, (name, unit) in labels.items()
+    ]
+
+
 def _rig_kernel_figures(pair: StereoPair, rig: StereoRig) -> list[dict]:
     """The real camera's kernel against the level-only kernel it generalises
     (tests/benchmarks/level_fitness.py), on the same flies in the same run, alternated:
@@ -477,6 +530,7 @@ def run(out_dir: Path) -> list[dict]:
     pair, depth, reading = _frame(rig)
     return (
         _fitness_figures(pair, rig)
+        + _similarity_figures(pair, rig)
         + _rig_kernel_figures(pair, rig)
         + _generation_figures(pair, depth, reading, rig)
         + _profile_figures(pair, reading, rig)
