@@ -84,6 +84,7 @@ def distinctness(
     *,
     gradient: Gradient = Gradient.NORM,
     similarity: Similarity = Similarity.ZSSD,
+    subpixel: bool = False,
     use_numba: bool = True,
     infinity: bool = False,
 ) -> np.ndarray:
@@ -106,7 +107,15 @@ def distinctness(
     points = np.concatenate([xyz[None], shifted]).reshape(-1, 3)
     fitness = fitness_numba if use_numba else fitness_numpy
     scores = fitness(
-        left, right, points, rig, window, guard, gradient=gradient, similarity=similarity
+        left,
+        right,
+        points,
+        rig,
+        window,
+        guard,
+        gradient=gradient,
+        similarity=similarity,
+        subpixel=subpixel,
     )
     scores = scores.reshape(len(shifted) + 1, n)
     own = scores[0]

@@ -71,7 +71,7 @@ class FlyEngine:
         self._spare = Population.fresh(np.empty((config.flies, 3)))
         self._numba = config.backend is Backend.NUMBA
         self._rig_constants = rig_constants(rig)
-        self._measure = measure_code(config.gradient, config.similarity)
+        self._measure = measure_code(config.gradient, config.similarity, config.subpixel)
         self._counter = NeighbourCounter()
         self._all = np.arange(config.flies, dtype=np.int64)
         self._none = self._all[:0]
@@ -348,7 +348,7 @@ class FlyEngine:
         if len(index):
             pop.vision[index] = fitness_numpy(
                 self._left, self._right, pop.xyz[index], self.rig, cfg.window, cfg.guard,
-                gradient=cfg.gradient, similarity=cfg.similarity,
+                gradient=cfg.gradient, similarity=cfg.similarity, subpixel=cfg.subpixel,
             )  # fmt: skip
             pop.stale[index] = False
             pop.stamp_ns[index] = self._stamp_ns

@@ -26,13 +26,21 @@ import numba
 import numpy as np
 
 from flylog.fly.config import Gradient, Similarity
+from flylog.fly.fitness_reference import fitness_numpy as fitness_numpy
 from flylog.fly.fitness_terms import (
     GY_BIT,
     NCC_BIT,
+    SUBPIXEL_BIT,
     ncc_lanes,
-    zncc_numpy,
+    subpixel_column,
+    windows_into,
     zncc_of,
 )
+from flylog.fly.fitness_terms import INVALID_FITNESS as INVALID_FITNESS
+from flylog.fly.fitness_terms import NCC_SCALE as NCC_SCALE
+from flylog.fly.fitness_terms import as_planes as as_planes
+from flylog.fly.fitness_terms import gy_weight as gy_weight
+from flylog.fly.fitness_terms import measure_code as measure_code
 from flylog.fly.fitness_terms import sobel_norm2 as _sobel_norm2
 from flylog.fly.fitness_terms import zssd_lanes as _zssd_lanes
 from flylog.fly.fitness_vector import (
@@ -59,26 +67,6 @@ from flylog.geometry.kernels import (
     project,
 )
 
-INVALID_FITNESS = -1.0
-# ZNCC's fitness, G / (n·C·(guard + NCC_SCALE·(1 − ZNCC))): 1 − ZNCC in grey level² per pixel
-# and channel, 2·s²·(1 − ZNCC) being the zero-mean SSD of two patches of contrast s, here s = 4.
-# Measured s = 2, 4, 8, 32, 128 (docs/engine.md): 4 gives the best real-pair share and the
-# corridor's F-score within 0.006 of the best.
-NCC_SCALE = 2.0 * 4.0 * 4.0
-
-
-def gy_weight(gradient: Gradient) -> int:
-    """The weight of gy² in the Sobel norm² the kernels compute: 1 for the paper's norm, 0 for
-    the horizontal derivative alone (``gradient`` a :class:`Gradient` or its value)."""
-    return 1 if Gradient(gradient) is Gradient.NORM else 0
-
-
-def measure_code(gradient: Gradient, similarity: Similarity = Similarity.ZSSD) -> int:
-    """The ``measure`` integer the compiled kernels take: :data:`GY_BIT` for the paper's
-    Sobel norm, :data:`NCC_BIT` for ZNCC (:mod:`flylog.fly.fitness_terms`)."""
-    ncc = Similarity(similarity) is Similarity.ZNCC
-    return gy_weight(gradient) * GY_BIT + (NCC_BIT if ncc else 0)
-
 
 def rig_constants(rig: StereoRig) -> np.ndarray:
     """The rig as the float64 array the kernels take (:mod:`flylog.geometry.kernels`)."""
@@ -95,58 +83,6 @@ def left_projections_numba(xyz, k):  # pragma: no cover - compiled
     for i in range(n):
         u[i], _, v[i], _ = project(k, xyz[i, 0], xyz[i, 1], xyz[i, 2])
     return u, v
-
-
-def as_planes(image: np.ndarray) -> np.ndarray:
-    """(H, W) or (H, W, C) uint8 → (H, W, C) C-contiguous uint8 (a view when possible)."""
-    image = np.asarray(image)
-    if image.ndim == 2:
-        image = image[:, :, None]
-    return np.ascontiguousarray(image, dtype=np.uint8)
-
-
-def fitness_numpy(
-    left: np.ndarray,
-    right: np.ndarray,
-    xyz: np.ndarray,
-    rig: StereoRig,
-    window: int,
-    guard: float,
-    *,
-    gradient: Gradient = Gradient.NORM,
-    similarity: Similarity = Similarity.ZSSD,
-) -> np.ndarray:
-    """Reference: the fitness of every fly of ``xyz`` (N, 3), by gathering whole patches."""
-    left, right = as_planes(left), as_planes(right)
-    height, width, channels = left.shape
-    h = window // 2
-    n = window * window
-    u_left, u_right, v, depth = rig.project(np.asarray(xyz, dtype=np.float64))
-    ul, ur, vv = (np.floor(a + 0.5) for a in (u_left, u_right, v))
-    valid = (depth > 0) & (vv >= h) & (vv <= height - 1 - h)
-    for u in (ul, ur):
-        valid &= (u >= h) & (u <= width - 1 - h)
-    out = np.full(len(depth), INVALID_FITNESS)
-    rows, ul_i, ur_i = (a[valid].astype(np.intp) for a in (vv, ul, ur))
-    off = np.arange(-h, h + 1)
-    r = rows[:, None, None] + off[None, :, None]
-    patch_l = left[r, ul_i[:, None, None] + off[None, None, :]].astype(np.int64)
-    patch_r = right[r, ur_i[:, None, None] + off[None, None, :]].astype(np.int64)
-    d = patch_l - patch_r  # (M, w, w, C)
-    s1 = d.sum(axis=(1, 2))
-    s2 = (d * d).sum(axis=(1, 2))
-    zssd = (n * s2 - s1 * s1).sum(axis=1) / n
-    c = patch_l[:, h - 1 : h + 2, h - 1 : h + 2]  # the 3×3 around the left projection
-    gx = (c[:, :, 2] - c[:, :, 0]) * np.array([1, 2, 1])[None, :, None]
-    gy = (c[:, 2, :] - c[:, 0, :]) * np.array([1, 2, 1])[None, :, None]
-    grad2 = (gx.sum(axis=1) ** 2 + gy_weight(gradient) * gy.sum(axis=1) ** 2).sum(axis=1)
-    g = np.sqrt(np.sqrt(grad2.astype(np.float64)))
-    if Similarity(similarity) is Similarity.ZNCC:
-        unlike = NCC_SCALE * n * channels * (1.0 - zncc_numpy(patch_l, patch_r))
-        out[valid] = g / (guard * n * channels + unlike)
-    else:
-        out[valid] = g / (zssd + guard * n * channels)
-    return out
 
 
 # Flies go in blocks, in three passes: project all (and prefetch their window rows), then the
@@ -182,6 +118,7 @@ def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, gua
     from :func:`lane_masks` with its gy weight."""
     gy_weight = measure & GY_BIT
     ncc = (measure & NCC_BIT) != 0
+    subpixel = (measure & SUBPIXEL_BIT) != 0
     height = lrow.shape[0]
     stride = lrow.shape[1]
     width = stride // channels
@@ -207,6 +144,10 @@ def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, gua
     proj = np.empty((4, _BLOCK))
     fitness = np.empty(_BLOCK)
     scratch = np.empty((5, ncols), dtype=np.int32)  # for the windows of the lane loop
+    frac = np.zeros(_BLOCK, dtype=np.int64)  # sub-pixel: the right window's weight
+    bs = max(ncols, LANES)  # sub-pixel: the copied windows' row length
+    lbuf = np.zeros(window * bs, dtype=np.uint8)
+    rbuf = np.zeros(window * bs, dtype=np.uint8)
     focal, cx, cy, cx_right = k[FOCAL], k[CX], k[CY], k[CX_RIGHT]
     lx, ly, lz, ry = k[LEFT], k[LEFT + 1], k[LEFT + 2], k[RIGHT + 1]
     level = k[LEVEL] != 0.0
@@ -235,8 +176,12 @@ def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, gua
             ul = math.floor(proj[1, t] + 0.5)
             ur = math.floor(proj[2, t] + 0.5)
             vv = math.floor(proj[3, t] + 0.5)
+            last = ur  # the right window's last column is last + h
+            if subpixel:
+                ur, frac[t] = subpixel_column(proj[1, t], proj[2, t])
+                last = ur + 1
             inside = h <= vv <= height - 1 - h and h <= ul <= width - 1 - h
-            if not (proj[0, t] > 0.0 and inside and h <= ur <= width - 1 - h):
+            if not (proj[0, t] > 0.0 and inside and h <= ur and last <= width - 1 - h):
                 first_l[t] = -1
                 continue
             row, cl, cr = int(vv), int(ul), int(ur)
@@ -256,32 +201,34 @@ def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, gua
             br = first_r[t]
             if bl < 0:
                 continue
-            if vector and ncc and max(bl, br) + reach <= size:
+            src_l, src_r, step = lflat, rflat, stride
+            fits = max(bl, br) + reach <= size
+            if subpixel:  # both windows copied, the right one interpolated, rows of bs bytes
+                windows_into(lflat, rflat, bl, br, stride, window, channels, frac[t], lbuf, rbuf,
+                             bs)  # fmt: skip
+                src_l, src_r, step, bl, br, fits = lbuf, rbuf, bs, 0, 0, True
+            if vector and ncc and fits:
                 if lanes == HALF:
-                    cov, vl, vr, grad2 = ncc_terms_16(lflat, rflat, bl, br, stride, window, masks)
+                    cov, vl, vr, grad2 = ncc_terms_16(src_l, src_r, bl, br, step, window, masks)
                 else:
-                    cov, vl, vr, grad2 = ncc_terms_32(lflat, rflat, bl, br, stride, window, masks)
+                    cov, vl, vr, grad2 = ncc_terms_32(src_l, src_r, bl, br, step, window, masks)
                 totals[t], variances[0, t], variances[1, t], grads[t] = cov, vl, vr, grad2
-            elif vector and max(bl, br) + reach <= size:
+            elif vector and fits:
                 if lanes == HALF:
-                    sq, squares, grad2 = window_terms_16(
-                        lflat, rflat, bl, br, stride, window, masks
-                    )
+                    sq, squares, grad2 = window_terms_16(src_l, src_r, bl, br, step, window, masks)
                 else:
-                    sq, squares, grad2 = window_terms_32(
-                        lflat, rflat, bl, br, stride, window, masks
-                    )
+                    sq, squares, grad2 = window_terms_32(src_l, src_r, bl, br, step, window, masks)
                 totals[t] = n * sq - squares
                 grads[t] = grad2
             else:
                 if ncc:
                     totals[t], variances[0, t], variances[1, t] = ncc_lanes(
-                        lflat, rflat, bl, br, stride, window, channels, scratch
+                        src_l, src_r, bl, br, step, window, channels, scratch
                     )
                 else:
-                    totals[t] = _zssd_lanes(lflat, rflat, bl, br, stride, window, channels, scratch)
-                centre = bl + h * stride + h * channels
-                grads[t] = _sobel_norm2(lflat, centre, stride, channels, gy_weight)
+                    totals[t] = _zssd_lanes(src_l, src_r, bl, br, step, window, channels, scratch)
+                centre = bl + h * step + h * channels
+                grads[t] = _sobel_norm2(src_l, centre, step, channels, gy_weight)
         if ncc:
             for t in range(m):
                 if first_l[t] >= 0:
@@ -361,6 +308,7 @@ def fitness_numba(
     *,
     gradient: Gradient = Gradient.NORM,
     similarity: Similarity = Similarity.ZSSD,
+    subpixel: bool = False,
     index: np.ndarray | None = None,
     out: np.ndarray | None = None,
     parallel_min: int = PARALLEL_MIN_EVALUATIONS,
@@ -388,7 +336,7 @@ def fitness_numba(
         consts,
         window,
         float(guard),
-        measure_code(gradient, similarity),
+        measure_code(gradient, similarity, subpixel),
         out,
     )
     return out

@@ -15,12 +15,97 @@ constants; numba's cache of those kernels does not see a change here.
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
-# Bits of the ``measure`` integer the compiled kernels take (measure_code in fitness.py).
+from flylog.fly.config import Gradient, Similarity
+
+INVALID_FITNESS = -1.0
+# ZNCC's fitness, G / (n·C·(guard + NCC_SCALE·(1 − ZNCC))): 1 − ZNCC in grey level² per pixel
+# and channel, 2·s²·(1 − ZNCC) being the zero-mean SSD of two patches of contrast s, here s = 4.
+# Measured s = 2, 4, 8, 32, 128 (docs/engine.md): 4 gives the best real-pair share and the
+# corridor's F-score within 0.006 of the best.
+NCC_SCALE = 2.0 * 4.0 * 4.0
+# Sub-pixel sampling: the right window is interpolated between two columns with weights in
+# 1/FRACTION steps (fixed point, rounded: (w0·a + w1·b + FRACTION/2) >> FRACTION_BITS).
+FRACTION_BITS = 8
+FRACTION = 1 << FRACTION_BITS
+
+# Bits of the ``measure`` integer the compiled kernels take (measure_code).
 GY_BIT = 1  # the Sobel norm² includes gy²
 NCC_BIT = 2  # the similarity is ZNCC (else ZSSD)
+SUBPIXEL_BIT = 4  # the right window is sampled at the exact right projection
+
+
+def gy_weight(gradient: Gradient) -> int:
+    """The weight of gy² in the Sobel norm² the kernels compute: 1 for the paper's norm, 0 for
+    the horizontal derivative alone (``gradient`` a :class:`Gradient` or its value)."""
+    return 1 if Gradient(gradient) is Gradient.NORM else 0
+
+
+def measure_code(
+    gradient: Gradient, similarity: Similarity = Similarity.ZSSD, subpixel: bool = False
+) -> int:
+    """The ``measure`` integer the compiled kernels take: :data:`GY_BIT` for the paper's
+    Sobel norm, :data:`NCC_BIT` for ZNCC, :data:`SUBPIXEL_BIT` for sub-pixel sampling."""
+    ncc = Similarity(similarity) is Similarity.ZNCC
+    return gy_weight(gradient) * GY_BIT + (NCC_BIT if ncc else 0) + (SUBPIXEL_BIT * subpixel)
+
+
+def as_planes(image: np.ndarray) -> np.ndarray:
+    """(H, W) or (H, W, C) uint8 → (H, W, C) C-contiguous uint8 (a view when possible)."""
+    image = np.asarray(image)
+    if image.ndim == 2:
+        image = image[:, :, None]
+    return np.ascontiguousarray(image, dtype=np.uint8)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def subpixel_column(u_left, u_right):  # pragma: no cover - compiled
+    """(x0, q): the right window's left column and weight of the next one, in 1/FRACTION, for
+    a left projection rounded to its pixel: the right one moves by the same rounding, so the
+    fly's disparity is kept exact. Same arithmetic as :func:`subpixel_columns_numpy`."""
+    x = u_right + (math.floor(u_left + 0.5) - u_left)
+    x0 = math.floor(x)
+    q = math.floor((x - x0) * FRACTION + 0.5)
+    if q >= FRACTION:
+        return x0 + 1, 0
+    return x0, q
+
+
+def subpixel_columns_numpy(u_left: np.ndarray, u_right: np.ndarray):
+    """Reference: :func:`subpixel_column` of arrays."""
+    x = u_right + (np.floor(u_left + 0.5) - u_left)
+    x0 = np.floor(x)
+    q = np.floor((x - x0) * FRACTION + 0.5)
+    over = q >= FRACTION
+    return np.where(over, x0 + 1, x0), np.where(over, 0, q).astype(np.int64)
+
+
+@numba.njit(cache=True, nogil=True)
+def windows_into(lflat, rflat, bl, br, stride, window, channels, q, lbuf, rbuf,
+                 bs):  # fmt: skip  # pragma: no cover - compiled
+    """Copy the left window from bl, and the right one from br interpolated towards the next
+    column with weight q/FRACTION, into rows of ``bs`` bytes of lbuf and rbuf."""
+    ncols = window * channels
+    w1 = np.int32(q)
+    w0 = np.int32(FRACTION) - w1
+    half = np.int32(FRACTION // 2)
+    # Unsigned offsets: no negative-index wraparound test per byte, so the loops vectorise.
+    lo, ro, bo = np.uint64(bl), np.uint64(br), np.uint64(0)
+    across, ustride, ubs = np.uint64(channels), np.uint64(stride), np.uint64(bs)
+    for _ in range(window):
+        for j in range(ncols):
+            lbuf[bo + np.uint64(j)] = lflat[lo + np.uint64(j)]
+        for j in range(ncols):
+            a = np.int32(rflat[ro + np.uint64(j)])
+            b = np.int32(rflat[ro + np.uint64(j) + across])
+            rbuf[bo + np.uint64(j)] = np.uint8((w0 * a + w1 * b + half) >> np.int32(FRACTION_BITS))
+        lo += ustride
+        ro += ustride
+        bo += ubs
 
 
 @numba.njit(cache=True, nogil=True, inline="always")

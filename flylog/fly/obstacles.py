@@ -185,6 +185,7 @@ class ObstacleFlies:
         out[measured] = distinctness(
             pair.left, pair.right, np.asarray(xyz)[measured], rig, engine.window, engine.guard,
             self.distinct_shifts, gradient=engine.gradient, similarity=engine.similarity,
+            subpixel=engine.subpixel,
             use_numba=engine.backend is Backend.NUMBA, infinity=self.distinct_at_infinity,
         )  # fmt: skip
         return out

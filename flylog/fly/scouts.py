@@ -163,7 +163,8 @@ class Scouting:
         self._window, self._guard = config.window, float(config.guard)
         self._gradient = config.gradient
         self._similarity = config.similarity
-        self._measure = measure_code(config.gradient, config.similarity)
+        self._subpixel = config.subpixel
+        self._measure = measure_code(config.gradient, config.similarity, config.subpixel)
         self._k = newcomer_constants(rig, config.d_min, config.d_max, margin)
         self._rig_k = rig_constants(rig)
         self._yaw = 0.0  # since the newest images
@@ -250,7 +251,7 @@ class Scouting:
             candidates = scout_candidates_numpy(rng, self._k, self._strip, n, k)
             fitness = fitness_numpy(
                 left, right, candidates, self.rig, self._window, self._guard,
-                gradient=self._gradient, similarity=self._similarity,
+                gradient=self._gradient, similarity=self._similarity, subpixel=self._subpixel,
             )  # fmt: skip
             xyz[len(xyz) - n :] = best_candidates_numpy(candidates, fitness, k)
         return n * k

@@ -140,10 +140,10 @@ def _fitness_figures(pair: StereoPair, rig: StereoRig) -> list[dict]:
 
 
 def _similarity_figures(pair: StereoPair, rig: StereoRig) -> list[dict]:
-    """ZNCC's fitness evaluations per second against the zero-mean SSD's, the same flies in
-    the same run (7×7 RGB, 640×480): all at once in parallel, and in serial batches of 2500
-    as a generation's newcomers are scored; and whole generations (5000 flies, every
-    operator) with each measure."""
+    """ZNCC's and sub-pixel sampling's fitness evaluations per second against the zero-mean
+    SSD on whole pixels, the same flies in the same run (7×7 RGB, 640×480): all at once in
+    parallel, and in serial batches of 2500 as a generation's newcomers are scored; and whole
+    generations (5000 flies, every operator) with each."""
     from flylog.fly import Similarity
 
     rng = np.random.default_rng(0)
@@ -153,42 +153,43 @@ def _similarity_figures(pair: StereoPair, rig: StereoRig) -> list[dict]:
     out = np.empty(n)
     index = np.arange(n)
     small = np.arange(2500)
-    rates: dict[tuple[Similarity, str], float] = {}
-    for similarity in Similarity:
-        fitness_numba(pair.left, pair.right, xyz[:1000], rig, 7, 1.0, similarity=similarity)
-        rates[similarity, "parallel"] = _best_rate(
-            lambda s=similarity: fitness_numba(
-                pair.left, pair.right, xyz, rig, 7, 1.0, similarity=s, index=index, out=out
-            ),
+    variants = [(s, sub) for sub in (False, True) for s in Similarity]
+    rates: dict[tuple, float] = {}
+    for s, sub in variants:
+        kw = {"similarity": s, "subpixel": sub, "out": out}
+        fitness_numba(pair.left, pair.right, xyz[:1000], rig, 7, 1.0, similarity=s, subpixel=sub)
+        rates[s, sub, "parallel"] = _best_rate(
+            lambda kw=kw: fitness_numba(pair.left, pair.right, xyz, rig, 7, 1.0, index=index, **kw),
             n,
             5,
         )
-        rates[similarity, "batch"] = _best_rate(
-            lambda s=similarity: fitness_numba(
-                pair.left, pair.right, xyz, rig, 7, 1.0, similarity=s, index=small, out=out
-            ),
+        rates[s, sub, "batch"] = _best_rate(
+            lambda kw=kw: fitness_numba(pair.left, pair.right, xyz, rig, 7, 1.0, index=small, **kw),
             2500,
             50,
         )
-        engine = FlyEngine(EngineConfig(similarity=similarity), rig, np.random.default_rng(0))
+        config = EngineConfig(similarity=s, subpixel=sub)
+        engine = FlyEngine(config, rig, np.random.default_rng(0))
         engine.set_images(pair)
         engine.steps(20)
-        rates[similarity, "generations"] = _best_rate(lambda e=engine: e.steps(100), 100, 3)
-    zssd, zncc = Similarity.ZSSD, Similarity.ZNCC
+        rates[s, sub, "generations"] = _best_rate(lambda e=engine: e.steps(100), 100, 3)
     labels = {
-        "parallel": ("fitness evaluations, numba parallel, zncc (7×7 RGB, 640×480)", "eval/s"),
-        "batch": ("fitness evaluations, numba serial batches of 2500, zncc", "eval/s"),
-        "generations": ("generations, 5000 flies, every operator, zncc", "gen/s"),
+        "parallel": ("fitness evaluations, numba parallel (7×7 RGB, 640×480)", "eval/s"),
+        "batch": ("fitness evaluations, numba serial batches of 2500", "eval/s"),
+        "generations": ("generations, 5000 flies, every operator", "gen/s"),
     }
+    base = (Similarity.ZSSD, False)
     return [
         {
-            "name": name,
-            "value": rates[zncc, key],
+            "name": f"{name}, {s.value}{', sub-pixel' if sub else ''}",
+            "value": rates[s, sub, key],
             "unit": unit,
-            "reference": "the same with zssd",
-            "ratio": rates[zncc, key] / rates[zssd, key],
+            "reference": "the same with zssd on whole pixels",
+            "ratio": rates[s, sub, key] / rates[(*base, key)],
         }
         for key, (name, unit) in labels.items()
+        for s, sub in variants
+        if (s, sub) != base
     ]
 
 

@@ -18,7 +18,9 @@ def pair():
 def _share(pair, name, similarity):
     left, right, truth = pair
     lit_left, lit_right = condition(left, right, name, np.random.default_rng(7))
-    xyz, fitness = run_flies(lit_left, lit_right, similarity, flies=2000, generations=20)
+    xyz, fitness = run_flies(
+        lit_left, lit_right, similarity, flies=2000, generations=20, subpixel=False
+    )
     return good_flies(xyz, fitness, truth)[2].mean()
 
 

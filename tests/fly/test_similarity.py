@@ -97,3 +97,37 @@ def test_zncc_perfect_match_is_the_guard_and_flat_patch_scores_zero():
     assert same[0] == pytest.approx(np.sqrt(np.hypot(gx, gy)) / 49.0, rel=1e-12)
     flat = np.full_like(left, 90)
     assert fitness_numba(flat, flat, far, SMALL, 7, 1.0, similarity=ZNCC)[0] == 0.0
+
+
+@pytest.mark.parametrize("similarity", list(Similarity))
+@pytest.mark.parametrize("channels", [1, 3, 5])
+@pytest.mark.parametrize("window", [3, 7, 11])
+def test_subpixel_kernel_equals_numpy_reference(similarity, channels, window):
+    left, right, xyz = _random_case(window + channels, channels)
+    want = fitness_numpy(left, right, xyz, SMALL, window, 1.0, similarity=similarity, subpixel=True)
+    assert (want > 0).sum() > 20
+    for parallel_min in (0, 10**9):
+        got = fitness_numba(
+            left, right, xyz, SMALL, window, 1.0, similarity=similarity, subpixel=True,
+            parallel_min=parallel_min,
+        )  # fmt: skip
+        np.testing.assert_array_equal(got, want)
+
+
+def test_subpixel_finds_a_half_pixel_shift_that_whole_pixels_miss():
+    # A smooth texture, the right image the left one moved by 4.5 px: the fly at the true
+    # disparity matches almost exactly when sampled between pixels, not when rounded.
+    x = np.arange(SMALL.width, dtype=np.float64)
+    y = np.arange(SMALL.height, dtype=np.float64)[:, None]
+
+    def texture(u):
+        return 128 + 60 * np.sin(0.35 * u + 0.2 * y) + 40 * np.cos(0.23 * u - 0.31 * y)
+
+    left = np.rint(texture(x)).astype(np.uint8)
+    right = np.rint(texture(x + 4.5)).astype(np.uint8)
+    depth = SMALL.fb / (4.5 + SMALL.doffs)
+    u, v = np.meshgrid(np.arange(12, 52, 3.0), np.arange(8, 40, 3.0))
+    xyz = SMALL.backproject(u.ravel(), v.ravel(), np.full(u.size, depth))
+    exact = fitness_numba(left, right, xyz, SMALL, 7, 1.0, subpixel=True)
+    rounded = fitness_numba(left, right, xyz, SMALL, 7, 1.0)
+    assert np.median(exact / rounded) > 2.0
