@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 from flylog.lazy import lazy_names
 
 if TYPE_CHECKING:
-    from flylog.fly.config import Backend, EngineConfig, Gradient
+    from flylog.fly.config import Backend, EngineConfig, Gradient, Similarity
     from flylog.fly.engine import FlyEngine
     from flylog.fly.fitness import INVALID_FITNESS, fitness_numba, fitness_numpy
     from flylog.fly.obstacles import ObstacleFlies, obstacle_mask, obstacle_points
@@ -31,6 +31,7 @@ _WHERE = {
     "Backend": "config",
     "EngineConfig": "config",
     "Gradient": "config",
+    "Similarity": "config",
     "FlyEngine": "engine",
     "GenerationStats": "stats",
     "INVALID_FITNESS": "fitness",
@@ -53,6 +54,7 @@ __all__ = [
     "Gradient",
     "ObstacleFlies",
     "Population",
+    "Similarity",
     "fitness_numba",
     "fitness_numpy",
     "obstacle_mask",

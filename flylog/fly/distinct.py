@@ -27,7 +27,7 @@ import math
 
 import numpy as np
 
-from flylog.fly.config import Gradient
+from flylog.fly.config import Gradient, Similarity
 from flylog.fly.fitness import (
     INVALID_FITNESS,
     fitness_numba,
@@ -83,6 +83,8 @@ def distinctness(
     shifts: tuple[int, ...],
     *,
     gradient: Gradient = Gradient.NORM,
+    similarity: Similarity = Similarity.ZSSD,
+    subpixel: bool = False,
     use_numba: bool = True,
     infinity: bool = False,
 ) -> np.ndarray:
@@ -104,7 +106,17 @@ def distinctness(
         valid = np.concatenate([valid, in_front[None]])
     points = np.concatenate([xyz[None], shifted]).reshape(-1, 3)
     fitness = fitness_numba if use_numba else fitness_numpy
-    scores = fitness(left, right, points, rig, window, guard, gradient=gradient)
+    scores = fitness(
+        left,
+        right,
+        points,
+        rig,
+        window,
+        guard,
+        gradient=gradient,
+        similarity=similarity,
+        subpixel=subpixel,
+    )
     scores = scores.reshape(len(shifted) + 1, n)
     own = scores[0]
     rivals = np.where(valid, scores[1:], INVALID_FITNESS).max(axis=0)

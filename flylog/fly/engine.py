@@ -20,7 +20,7 @@ from flylog.fly.fitness import (
     as_planes,
     fitness_into,
     fitness_numpy,
-    gy_weight,
+    measure_code,
     rig_constants,
 )
 from flylog.fly.fusion import (
@@ -71,7 +71,7 @@ class FlyEngine:
         self._spare = Population.fresh(np.empty((config.flies, 3)))
         self._numba = config.backend is Backend.NUMBA
         self._rig_constants = rig_constants(rig)
-        self._gy_weight = gy_weight(config.gradient)
+        self._measure = measure_code(config.gradient, config.similarity, config.subpixel)
         self._counter = NeighbourCounter()
         self._all = np.arange(config.flies, dtype=np.int64)
         self._none = self._all[:0]
@@ -261,7 +261,7 @@ class FlyEngine:
             if evaluations >= PARALLEL_MIN_EVALUATIONS:
                 fitness_into(
                     left, right, channels, pop.xyz, stale, self._rig_constants, cfg.window,
-                    float(cfg.guard), self._gy_weight, pop.vision,
+                    float(cfg.guard), self._measure, pop.vision,
                 )  # fmt: skip
                 pop.stale[stale] = False
                 pop.stamp_ns[stale] = self._stamp_ns
@@ -274,7 +274,7 @@ class FlyEngine:
         made = np.empty((count, 4), dtype=np.int64)
         generations_kernel(
             count, made, self._rng, left, right, channels, self._rig_constants, cfg.window,
-            self._guard, self._gy_weight, self._stamp_ns,
+            self._guard, self._measure, self._stamp_ns,
             pop.xyz, pop.fitness, pop.vision, pop.stale, pop.stamp_ns, pop.age,
             nxt.xyz, nxt.fitness, nxt.vision, nxt.stale, nxt.stamp_ns, nxt.age,
             self._stale_index, self._all, fuse_all, sonars, self._cos_half_cone,
@@ -310,7 +310,7 @@ class FlyEngine:
             left, right, channels, pop.xyz, self._none, self._rig_constants, cfg.window,
             float(cfg.guard), self._stamp_ns, pop.vision, pop.stale, pop.stamp_ns, sonars,
             self._cos_half_cone, cfg.sonar_tolerance, cfg.sonar_bonus, index, pop.fitness,
-            self._gy_weight,
+            self._measure,
         )  # fmt: skip
 
     def _random(self, n: int) -> np.ndarray:
@@ -348,7 +348,7 @@ class FlyEngine:
         if len(index):
             pop.vision[index] = fitness_numpy(
                 self._left, self._right, pop.xyz[index], self.rig, cfg.window, cfg.guard,
-                gradient=cfg.gradient,
+                gradient=cfg.gradient, similarity=cfg.similarity, subpixel=cfg.subpixel,
             )  # fmt: skip
             pop.stale[index] = False
             pop.stamp_ns[index] = self._stamp_ns

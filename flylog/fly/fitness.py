@@ -25,12 +25,31 @@ import math
 import numba
 import numpy as np
 
-from flylog.fly.config import Gradient
+from flylog.fly.config import Gradient, Similarity
+from flylog.fly.fitness_reference import fitness_numpy as fitness_numpy
+from flylog.fly.fitness_terms import (
+    GY_BIT,
+    NCC_BIT,
+    SUBPIXEL_BIT,
+    ncc_lanes,
+    subpixel_column,
+    windows_into,
+    zncc_of,
+)
+from flylog.fly.fitness_terms import INVALID_FITNESS as INVALID_FITNESS
+from flylog.fly.fitness_terms import NCC_SCALE as NCC_SCALE
+from flylog.fly.fitness_terms import as_planes as as_planes
+from flylog.fly.fitness_terms import gy_weight as gy_weight
+from flylog.fly.fitness_terms import measure_code as measure_code
+from flylog.fly.fitness_terms import sobel_norm2 as _sobel_norm2
+from flylog.fly.fitness_terms import zssd_lanes as _zssd_lanes
 from flylog.fly.fitness_vector import (
     HALF,
     LANES,
     MAX_CHANNELS,
     lane_masks,
+    ncc_terms_16,
+    ncc_terms_32,
     prefetch,
     window_terms_16,
     window_terms_32,
@@ -48,14 +67,6 @@ from flylog.geometry.kernels import (
     project,
 )
 
-INVALID_FITNESS = -1.0
-
-
-def gy_weight(gradient: Gradient) -> int:
-    """The weight of gy² in the Sobel norm² the kernels compute: 1 for the paper's norm, 0 for
-    the horizontal derivative alone (``gradient`` a :class:`Gradient` or its value)."""
-    return 1 if Gradient(gradient) is Gradient.NORM else 0
-
 
 def rig_constants(rig: StereoRig) -> np.ndarray:
     """The rig as the float64 array the kernels take (:mod:`flylog.geometry.kernels`)."""
@@ -72,106 +83,6 @@ def left_projections_numba(xyz, k):  # pragma: no cover - compiled
     for i in range(n):
         u[i], _, v[i], _ = project(k, xyz[i, 0], xyz[i, 1], xyz[i, 2])
     return u, v
-
-
-def as_planes(image: np.ndarray) -> np.ndarray:
-    """(H, W) or (H, W, C) uint8 → (H, W, C) C-contiguous uint8 (a view when possible)."""
-    image = np.asarray(image)
-    if image.ndim == 2:
-        image = image[:, :, None]
-    return np.ascontiguousarray(image, dtype=np.uint8)
-
-
-def fitness_numpy(
-    left: np.ndarray,
-    right: np.ndarray,
-    xyz: np.ndarray,
-    rig: StereoRig,
-    window: int,
-    guard: float,
-    *,
-    gradient: Gradient = Gradient.NORM,
-) -> np.ndarray:
-    """Reference: the fitness of every fly of ``xyz`` (N, 3), by gathering whole patches."""
-    left, right = as_planes(left), as_planes(right)
-    height, width, channels = left.shape
-    h = window // 2
-    n = window * window
-    u_left, u_right, v, depth = rig.project(np.asarray(xyz, dtype=np.float64))
-    ul, ur, vv = (np.floor(a + 0.5) for a in (u_left, u_right, v))
-    valid = (depth > 0) & (vv >= h) & (vv <= height - 1 - h)
-    for u in (ul, ur):
-        valid &= (u >= h) & (u <= width - 1 - h)
-    out = np.full(len(depth), INVALID_FITNESS)
-    rows, ul_i, ur_i = (a[valid].astype(np.intp) for a in (vv, ul, ur))
-    off = np.arange(-h, h + 1)
-    r = rows[:, None, None] + off[None, :, None]
-    patch_l = left[r, ul_i[:, None, None] + off[None, None, :]].astype(np.int64)
-    patch_r = right[r, ur_i[:, None, None] + off[None, None, :]].astype(np.int64)
-    d = patch_l - patch_r  # (M, w, w, C)
-    s1 = d.sum(axis=(1, 2))
-    s2 = (d * d).sum(axis=(1, 2))
-    zssd = (n * s2 - s1 * s1).sum(axis=1) / n
-    c = patch_l[:, h - 1 : h + 2, h - 1 : h + 2]  # the 3×3 around the left projection
-    gx = (c[:, :, 2] - c[:, :, 0]) * np.array([1, 2, 1])[None, :, None]
-    gy = (c[:, 2, :] - c[:, 0, :]) * np.array([1, 2, 1])[None, :, None]
-    grad2 = (gx.sum(axis=1) ** 2 + gy_weight(gradient) * gy.sum(axis=1) ** 2).sum(axis=1)
-    out[valid] = np.sqrt(np.sqrt(grad2.astype(np.float64))) / (zssd + guard * n * channels)
-    return out
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _byte(flat, offset):  # pragma: no cover - compiled
-    return np.int64(flat[offset])
-
-
-@numba.njit(cache=True, nogil=True)
-def _sobel_norm2(flat, centre, stride, channels, gy_weight=1):  # pragma: no cover - compiled
-    """Σ_c (gx² + gy_weight·gy²) of the 3×3 Sobel around the flat offset ``centre`` (channel
-    0) of an image read as a flat (H·W·C) array (offsets unsigned: no wraparound test per
-    read)."""
-    grad2 = np.int64(0)
-    across, down = np.uint64(channels), np.uint64(stride)
-    for c in range(channels):
-        m = np.uint64(centre + c)
-        a, b = m - down, m + down  # above and below
-        nw, n, ne = _byte(flat, a - across), _byte(flat, a), _byte(flat, a + across)
-        w, e = _byte(flat, m - across), _byte(flat, m + across)
-        sw, s, se = _byte(flat, b - across), _byte(flat, b), _byte(flat, b + across)
-        gx = ne - nw + 2 * (e - w) + se - sw
-        gy = sw - nw + 2 * (s - n) + se - ne
-        grad2 += gx * gx + gy_weight * gy * gy
-    return grad2
-
-
-@numba.njit(cache=True, nogil=True)
-def _zssd_lanes(lflat, rflat, bl, br, stride, window, channels, scratch):  # pragma: no cover
-    """n·Σ_c ZSSD_c = n·Σd² − Σ_c (Σd)², for any window and channel count: Σd and Σd² per
-    (column, channel) lane in ``scratch`` (2, ≥ window·channels) int32, then by channel."""
-    ncols = window * channels
-    col, sqv = scratch[0], scratch[1]
-    for j in range(ncols):
-        col[j] = 0
-        sqv[j] = 0
-    # Unsigned offsets: no negative-index wraparound test per byte, so the lane loop vectorises.
-    ul, ur, ustride = np.uint64(bl), np.uint64(br), np.uint64(stride)
-    for _ in range(window):
-        for j in range(ncols):
-            d = np.int32(lflat[ul + np.uint64(j)]) - np.int32(rflat[ur + np.uint64(j)])
-            col[j] += d
-            sqv[j] += d * d
-        ul += ustride
-        ur += ustride
-    sq = np.int64(0)
-    for j in range(ncols):
-        sq += sqv[j]
-    total = np.int64(window * window) * sq
-    for c in range(channels):
-        s1 = np.int64(0)
-        for j in range(c, ncols, channels):
-            s1 += col[j]
-        total -= s1 * s1
-    return total
 
 
 # Flies go in blocks, in three passes: project all (and prefetch their window rows), then the
@@ -201,10 +112,13 @@ def _prefetch_window(lflat, rflat, bl, br, stride, window, lanes):  # pragma: no
 # error_model="numpy": no zero test per division (a fly behind the cameras divides by a depth
 # ≤ 0 and is discarded), so the projection and the last pass are vectorised loops.
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, guard, gy_weight,
+def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, guard, measure,
                    masks, out):  # fmt: skip  # pragma: no cover - compiled
-    """Fitness of flies index[start:stop]; ``masks`` from :func:`lane_masks` with the same
-    ``gy_weight``."""
+    """Fitness of flies index[start:stop]; ``measure`` from :func:`measure_code`, ``masks``
+    from :func:`lane_masks` with its gy weight."""
+    gy_weight = measure & GY_BIT
+    ncc = (measure & NCC_BIT) != 0
+    subpixel = (measure & SUBPIXEL_BIT) != 0
     height = lrow.shape[0]
     stride = lrow.shape[1]
     width = stride // channels
@@ -213,6 +127,7 @@ def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, gua
     n = window * window
     ncols = window * channels
     denominator_guard = guard * n * channels
+    ncc_scale = NCC_SCALE * n * channels
     lflat = lrow.reshape(size)
     rflat = rrow.reshape(size)
     lanes = HALF if ncols <= HALF else LANES
@@ -223,11 +138,16 @@ def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, gua
     first_l = np.empty(_BLOCK, dtype=np.int64)
     first_r = np.empty(_BLOCK, dtype=np.int64)
     totals = np.empty(_BLOCK, dtype=np.int64)
+    variances = np.empty((2, _BLOCK), dtype=np.int64)  # ZNCC's vl and vr
     grads = np.empty(_BLOCK, dtype=np.int64)
     # the projections of the block's flies: depth, u left, u right, v
     proj = np.empty((4, _BLOCK))
     fitness = np.empty(_BLOCK)
-    scratch = np.empty((2, ncols), dtype=np.int32)  # for the windows of the lane loop
+    scratch = np.empty((5, ncols), dtype=np.int32)  # for the windows of the lane loop
+    frac = np.zeros(_BLOCK, dtype=np.int64)  # sub-pixel: the right window's weight
+    bs = max(ncols, LANES)  # sub-pixel: the copied windows' row length
+    lbuf = np.zeros(window * bs, dtype=np.uint8)
+    rbuf = np.zeros(window * bs, dtype=np.uint8)
     focal, cx, cy, cx_right = k[FOCAL], k[CX], k[CY], k[CX_RIGHT]
     lx, ly, lz, ry = k[LEFT], k[LEFT + 1], k[LEFT + 2], k[RIGHT + 1]
     level = k[LEVEL] != 0.0
@@ -256,8 +176,12 @@ def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, gua
             ul = math.floor(proj[1, t] + 0.5)
             ur = math.floor(proj[2, t] + 0.5)
             vv = math.floor(proj[3, t] + 0.5)
+            last = ur  # the right window's last column is last + h
+            if subpixel:
+                ur, frac[t] = subpixel_column(proj[1, t], proj[2, t])
+                last = ur + 1
             inside = h <= vv <= height - 1 - h and h <= ul <= width - 1 - h
-            if not (proj[0, t] > 0.0 and inside and h <= ur <= width - 1 - h):
+            if not (proj[0, t] > 0.0 and inside and h <= ur and last <= width - 1 - h):
                 first_l[t] = -1
                 continue
             row, cl, cr = int(vv), int(ul), int(ur)
@@ -277,24 +201,45 @@ def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, gua
             br = first_r[t]
             if bl < 0:
                 continue
-            if vector and max(bl, br) + reach <= size:
+            src_l, src_r, step = lflat, rflat, stride
+            fits = max(bl, br) + reach <= size
+            if subpixel:  # both windows copied, the right one interpolated, rows of bs bytes
+                windows_into(lflat, rflat, bl, br, stride, window, channels, frac[t], lbuf, rbuf,
+                             bs)  # fmt: skip
+                src_l, src_r, step, bl, br, fits = lbuf, rbuf, bs, 0, 0, True
+            if vector and ncc and fits:
                 if lanes == HALF:
-                    sq, squares, grad2 = window_terms_16(
-                        lflat, rflat, bl, br, stride, window, masks
-                    )
+                    cov, vl, vr, grad2 = ncc_terms_16(src_l, src_r, bl, br, step, window, masks)
                 else:
-                    sq, squares, grad2 = window_terms_32(
-                        lflat, rflat, bl, br, stride, window, masks
-                    )
+                    cov, vl, vr, grad2 = ncc_terms_32(src_l, src_r, bl, br, step, window, masks)
+                totals[t], variances[0, t], variances[1, t], grads[t] = cov, vl, vr, grad2
+            elif vector and fits:
+                if lanes == HALF:
+                    sq, squares, grad2 = window_terms_16(src_l, src_r, bl, br, step, window, masks)
+                else:
+                    sq, squares, grad2 = window_terms_32(src_l, src_r, bl, br, step, window, masks)
                 totals[t] = n * sq - squares
                 grads[t] = grad2
             else:
-                totals[t] = _zssd_lanes(lflat, rflat, bl, br, stride, window, channels, scratch)
-                centre = bl + h * stride + h * channels
-                grads[t] = _sobel_norm2(lflat, centre, stride, channels, gy_weight)
-        for t in range(m):  # no branch: vectorised (an invalid fly's terms are stale)
-            zssd = totals[t] / n
-            fitness[t] = math.sqrt(math.sqrt(float(grads[t]))) / (zssd + denominator_guard)
+                if ncc:
+                    totals[t], variances[0, t], variances[1, t] = ncc_lanes(
+                        src_l, src_r, bl, br, step, window, channels, scratch
+                    )
+                else:
+                    totals[t] = _zssd_lanes(src_l, src_r, bl, br, step, window, channels, scratch)
+                centre = bl + h * step + h * channels
+                grads[t] = _sobel_norm2(src_l, centre, step, channels, gy_weight)
+        if ncc:
+            for t in range(m):
+                if first_l[t] >= 0:
+                    zncc = zncc_of(totals[t], variances[0, t], variances[1, t])
+                    unlike = ncc_scale * (1.0 - zncc)
+                    g = math.sqrt(math.sqrt(float(grads[t])))
+                    fitness[t] = g / (denominator_guard + unlike)
+        else:
+            for t in range(m):  # no branch: vectorised (an invalid fly's terms are stale)
+                zssd = totals[t] / n
+                fitness[t] = math.sqrt(math.sqrt(float(grads[t]))) / (zssd + denominator_guard)
         for t in range(m):
             out[index[block + t]] = fitness[t] if first_l[t] >= 0 else INVALID_FITNESS
 
@@ -308,23 +253,23 @@ PARALLEL_MIN_EVALUATIONS = 20_000
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
-def _fitness_parallel(lrow, rrow, channels, xyz, index, k, window, guard, gy_weight,
+def _fitness_parallel(lrow, rrow, channels, xyz, index, k, window, guard, measure,
                       out):  # fmt: skip  # pragma: no cover - compiled
     m = index.shape[0]
-    masks = lane_masks(window, channels, gy_weight)
+    masks = lane_masks(window, channels, measure & GY_BIT)
     for chunk in numba.prange(_CHUNKS):
         _fitness_range(
             lrow, rrow, channels, xyz, index, chunk * m // _CHUNKS, (chunk + 1) * m // _CHUNKS,
-            k, window, guard, gy_weight, masks, out,
+            k, window, guard, measure, masks, out,
         )  # fmt: skip
 
 
 @numba.njit(cache=True, nogil=True)
-def _fitness_serial(lrow, rrow, channels, xyz, index, k, window, guard, gy_weight,
+def _fitness_serial(lrow, rrow, channels, xyz, index, k, window, guard, measure,
                     out):  # fmt: skip  # pragma: no cover - compiled
-    masks = lane_masks(window, channels, gy_weight)
+    masks = lane_masks(window, channels, measure & GY_BIT)
     _fitness_range(
-        lrow, rrow, channels, xyz, index, 0, index.shape[0], k, window, guard, gy_weight, masks,
+        lrow, rrow, channels, xyz, index, 0, index.shape[0], k, window, guard, measure, masks,
         out,
     )  # fmt: skip
 
@@ -342,15 +287,15 @@ def fitness_into(
     consts: np.ndarray,
     window: int,
     guard: float,
-    gy_weight: int,
+    measure: int,
     out: np.ndarray,
     parallel_min: int = PARALLEL_MIN_EVALUATIONS,
 ) -> None:
     """:func:`fitness_numba` without the argument conversions, for a caller (the engine) that
     keeps them: (H, W·C) uint8 rows, C-contiguous float64 ``xyz``, int64 ``index``, ``consts``
-    from :func:`rig_constants`, ``gy_weight`` from :func:`gy_weight`."""
+    from :func:`rig_constants`, ``measure`` from :func:`measure_code`."""
     kernel = _fitness_parallel if len(index) >= parallel_min else _fitness_serial
-    kernel(left_rows, right_rows, channels, xyz, index, consts, window, guard, gy_weight, out)
+    kernel(left_rows, right_rows, channels, xyz, index, consts, window, guard, measure, out)
 
 
 def fitness_numba(
@@ -362,6 +307,8 @@ def fitness_numba(
     guard: float,
     *,
     gradient: Gradient = Gradient.NORM,
+    similarity: Similarity = Similarity.ZSSD,
+    subpixel: bool = False,
     index: np.ndarray | None = None,
     out: np.ndarray | None = None,
     parallel_min: int = PARALLEL_MIN_EVALUATIONS,
@@ -389,7 +336,7 @@ def fitness_numba(
         consts,
         window,
         float(guard),
-        gy_weight(gradient),
+        measure_code(gradient, similarity, subpixel),
         out,
     )
     return out

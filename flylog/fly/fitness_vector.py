@@ -217,3 +217,130 @@ def lane_masks(window, channels, gy_weight=1):  # pragma: no cover - compiled
             masks[_MASK_GX + c, j // HALF, j % HALF] = gx
             masks[_MASK_GY + c, j // HALF, j % HALF] = gy * gy_weight
     return masks
+
+
+def ncc_terms_intrinsic(pair_sums, halves: int):
+    """As :func:`window_terms_intrinsic`, for ZNCC: (left, right, bl, br, stride, rows, masks)
+    → (n·Σlr − Σ_c Σl_c·Σr_c, n·Σl² − Σ_c (Σl_c)², n·Σr² − Σ_c (Σr_c)², Sobel norm²) with
+    n = rows² (:func:`flylog.fly.fitness_terms.ncc_lanes`'s three sums). Σl and Σr are kept
+    per lane in int16, Σl², Σr², Σlr in int32 lane pairs: only Σl and Σr are needed by
+    channel, the others over every lane."""
+
+    @intrinsic
+    def ncc_terms(typingctx, left, right, bl, br, stride, rows, masks):
+        byte_arrays = all(
+            isinstance(a, types.Array) and a.dtype == types.uint8 and a.layout == "C"
+            for a in (left, right)
+        )
+        if not (byte_arrays and isinstance(masks, types.Array) and masks.layout == "C"):
+            return None
+        return types.UniTuple(types.int64, 4)(left, right, bl, br, stride, rows, masks), codegen
+
+    def codegen(context, builder, signature, args):
+        left, right, bl, br, stride, rows, masks = args
+        t_left, t_right, _, _, _, _, t_masks = signature.args
+        lptr = context.make_array(t_left)(context, builder, left).data
+        rptr = context.make_array(t_right)(context, builder, right).data
+        mptr = builder.bitcast(
+            context.make_array(t_masks)(context, builder, masks).data, _WORDS.as_pointer()
+        )
+
+        def mask(row, half):
+            return builder.load(builder.gep(mptr, [ir.Constant(_I64, 2 * row + half)]), align=2)
+
+        def words(data, offset, half):
+            at = builder.add(offset, ir.Constant(_I64, half * HALF))
+            ptr = builder.bitcast(builder.gep(data, [at]), _BYTES.as_pointer())
+            return builder.zext(builder.load(ptr, align=1), _WORDS)
+
+        def zeros(vector_type):
+            return [cgutils.alloca_once_value(builder, ir.Constant(vector_type, None))
+                    for _ in range(halves)]  # fmt: skip
+
+        lane_mask = [mask(_MASK_LANES, h) for h in range(halves)]
+        sl, sr, ql, qr, x = (
+            zeros(_WORDS),
+            zeros(_WORDS),
+            zeros(_PAIRS),
+            zeros(_PAIRS),
+            zeros(_PAIRS),
+        )
+        offsets = cgutils.alloca_once_value(builder, bl), cgutils.alloca_once_value(builder, br)
+
+        def accumulate(acc, value):
+            builder.store(builder.add(builder.load(acc), value), acc)
+
+        with cgutils.for_range(builder, rows):
+            lo, ro = builder.load(offsets[0]), builder.load(offsets[1])
+            for h in range(halves):
+                a = builder.and_(words(lptr, lo, h), lane_mask[h])
+                b = builder.and_(words(rptr, ro, h), lane_mask[h])
+                accumulate(sl[h], a)
+                accumulate(sr[h], b)
+                accumulate(ql[h], pair_sums(builder, a, a))
+                accumulate(qr[h], pair_sums(builder, b, b))
+                accumulate(x[h], pair_sums(builder, a, b))
+            builder.store(builder.add(lo, stride), offsets[0])
+            builder.store(builder.add(ro, stride), offsets[1])
+        centre = builder.add(bl, builder.mul(builder.lshr(rows, ir.Constant(_I64, 1)), stride))
+        above, below = builder.sub(centre, stride), builder.add(centre, stride)
+        smooth, slope = [], []
+        for h in range(halves):
+            a, m, b = (words(lptr, at, h) for at in (above, centre, below))
+            smooth.append(
+                builder.add(builder.add(a, b), builder.shl(m, ir.Constant(_WORDS, [1] * HALF)))
+            )
+            slope.append(builder.sub(b, a))
+
+        def dot(lanes, row):
+            total = pair_sums(builder, lanes[0], mask(row, 0))
+            for h in range(1, halves):
+                total = builder.add(total, pair_sums(builder, lanes[h], mask(row, h)))
+            return total
+
+        def total(accs):
+            v = builder.load(accs[0])
+            for a in accs[1:]:
+                v = builder.add(v, builder.load(a))
+            return _reduce(builder, v, "v8i32", 32)
+
+        left_sums = [builder.load(a) for a in sl]
+        right_sums = [builder.load(a) for a in sr]
+        channel = range(MAX_CHANNELS)
+        # lanes 0-3: Σl by channel, 4-7: Σr by channel, in the same channel order
+        first = _sums_of_eight(
+            builder,
+            [dot(left_sums, _MASK_SUM + c) for c in channel]
+            + [dot(right_sums, _MASK_SUM + c) for c in channel],
+        )
+        second = _sums_of_eight(  # lanes 0-3: gx, 4-7: gy
+            builder,
+            [dot(smooth, _MASK_GX + c) for c in channel]
+            + [dot(slope, _MASK_GY + c) for c in channel],
+        )
+        quad = ir.VectorType(_I32, 4)
+
+        def lanes(v, start):
+            return builder.shuffle_vector(v, v, ir.Constant(quad, list(range(start, start + 4))))
+
+        wide = ir.VectorType(_I64, 4)
+        by_l, by_r = builder.sext(lanes(first, 0), wide), builder.sext(lanes(first, 4), wide)
+
+        def reduce64(a, b):
+            return _reduce(builder, builder.mul(a, b), "v4i64", 64)
+
+        gx4, gy4 = lanes(second, 0), lanes(second, 4)
+        grad2 = _reduce(
+            builder, builder.add(builder.mul(gx4, gx4), builder.mul(gy4, gy4)), "v4i32", 32
+        )
+        n = builder.mul(rows, rows)
+        cov = builder.sub(builder.mul(n, total(x)), reduce64(by_l, by_r))
+        vl = builder.sub(builder.mul(n, total(ql)), reduce64(by_l, by_l))
+        vr = builder.sub(builder.mul(n, total(qr)), reduce64(by_r, by_r))
+        return context.make_tuple(builder, signature.return_type, [cov, vl, vr, grad2])
+
+    return ncc_terms
+
+
+ncc_terms_16 = ncc_terms_intrinsic(PAIR_SUMS, 1)
+ncc_terms_32 = ncc_terms_intrinsic(PAIR_SUMS, 2)

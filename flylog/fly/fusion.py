@@ -302,14 +302,14 @@ def _move_kernel(xyz, x, y, c, s):  # pragma: no cover - compiled
 @numba.njit(cache=True, nogil=True)
 def score_into(lrows, rrows, channels, xyz, index, k, window, guard, stamp, vision, stale,
                stamp_ns, sonars, cos_half_cone, tolerance, bonus, fuse_index, fitness,
-               gy_weight=1):  # fmt: skip  # pragma: no cover - compiled
+               measure=1):  # fmt: skip  # pragma: no cover - compiled
     """A generation's scoring in one call: the vision fitness of the flies ``index``
     (:func:`~flylog.fly.fitness.fitness_into`'s serial kernel, their ``stale`` cleared and
     ``stamp_ns`` set to ``stamp``), then the fused fitness of the flies ``fuse_index``: the
     vision fitness, times the sonar bonus (:func:`sonar_fuse_into`) if ``sonars`` has a row.
-    ``gy_weight``: :func:`~flylog.fly.fitness.gy_weight` (1, the paper's Sobel norm)."""
+    ``measure``: :func:`~flylog.fly.fitness.measure_code` (1: ZSSD, the paper's Sobel norm)."""
     if index.shape[0] > 0:
-        fitness_serial(lrows, rrows, channels, xyz, index, k, window, guard, gy_weight, vision)
+        fitness_serial(lrows, rrows, channels, xyz, index, k, window, guard, measure, vision)
         for t in range(index.shape[0]):
             stale[index[t]] = False
             stamp_ns[index[t]] = stamp

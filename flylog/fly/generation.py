@@ -36,7 +36,7 @@ from flylog.geometry.kernels import row_of
 
 
 @numba.njit(cache=True, nogil=True)
-def generation_kernel(rng, lrows, rrows, channels, k, window, guard, gy_weight, stamp,
+def generation_kernel(rng, lrows, rrows, channels, k, window, guard, measure, stamp,
                       xyz, fitness, vision, stale, stamp_ns, age,
                       oxyz, ofit, ovis, ostale, ostamp, oage,
                       stale_index, everyone, fuse_all, sonars, cos_half_cone, tolerance, bonus,
@@ -58,7 +58,7 @@ def generation_kernel(rng, lrows, rrows, channels, k, window, guard, gy_weight, 
     fuse = everyone if fuse_all else index
     score_into(lrows, rrows, channels, xyz, index, k, window, guard, stamp, vision, stale,
                stamp_ns, sonars, cos_half_cone, tolerance, bonus, fuse, fitness,
-               gy_weight)  # fmt: skip
+               measure)  # fmt: skip
     evaluations = m
     kept = select_into_kernel(fitness, coefficient, sharing, survivors, work, k, radius, grid,
                               ints, uv, counts, xyz, vision, stale, stamp_ns, age, oxyz, ofit,
@@ -73,19 +73,19 @@ def generation_kernel(rng, lrows, rrows, channels, k, window, guard, gy_weight, 
     if n_scouts > 0:
         r = n_scouts * n_depths
         scouts_into(rng, scout_k, c0, c1, in_right, n_depths, lrows, rrows, channels, k, window,
-                    guard, gy_weight, candidates[:r], candidate_index[:r],
+                    guard, measure, candidates[:r], candidate_index[:r],
                     candidate_fitness[:r], oxyz[n - n_scouts :])  # fmt: skip
         evaluations += r
     order = rows_order_into(oxyz, newcomers, k, lrows.shape[0], row_scratch)
     score_into(lrows, rrows, channels, oxyz, order, k, window, guard, stamp, ovis, ostale,
                ostamp, sonars, cos_half_cone, tolerance, bonus, order, ofit,
-               gy_weight)  # fmt: skip
+               measure)  # fmt: skip
     evaluations += newcomers.shape[0]
     return evaluations, kept, n_children, found
 
 
 @numba.njit(cache=True, nogil=True)
-def generations_kernel(count, made, rng, lrows, rrows, channels, k, window, guard, gy_weight,
+def generations_kernel(count, made, rng, lrows, rrows, channels, k, window, guard, measure,
                        stamp, xyz, fitness, vision, stale, stamp_ns, age,
                        oxyz, ofit, ovis, ostale, ostamp, oage,
                        stale_index, everyone, fuse_all, sonars, cos_half_cone, tolerance, bonus,
@@ -112,7 +112,7 @@ def generations_kernel(count, made, rng, lrows, rrows, channels, k, window, guar
         ax, af, av, ast, ats, aag = src
         bx, bf, bv, bst, bts, bag = dst
         e, kept, children, found = generation_kernel(
-            rng, lrows, rrows, channels, k, window, guard, gy_weight, stamp,
+            rng, lrows, rrows, channels, k, window, guard, measure, stamp,
             ax, af, av, ast, ats, aag, bx, bf, bv, bst, bts, bag,
             stale_index, everyone, fuse, sonars, cos_half_cone, tolerance, bonus,
             survivors, sharing, coefficient, work, radius, grid, ints, uv, counts,

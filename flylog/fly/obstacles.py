@@ -184,7 +184,8 @@ class ObstacleFlies:
         measured = np.flatnonzero(candidates)
         out[measured] = distinctness(
             pair.left, pair.right, np.asarray(xyz)[measured], rig, engine.window, engine.guard,
-            self.distinct_shifts, gradient=engine.gradient,
+            self.distinct_shifts, gradient=engine.gradient, similarity=engine.similarity,
+            subpixel=engine.subpixel,
             use_numba=engine.backend is Backend.NUMBA, infinity=self.distinct_at_infinity,
         )  # fmt: skip
         return out

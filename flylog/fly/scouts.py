@@ -29,7 +29,7 @@ import numba
 import numpy as np
 
 from flylog.fly.config import Backend, EngineConfig
-from flylog.fly.fitness import fitness_numpy, fitness_serial, gy_weight, rig_constants
+from flylog.fly.fitness import fitness_numpy, fitness_serial, measure_code, rig_constants
 from flylog.fly.operators import newcomer_constants
 from flylog.geometry import StereoRig
 from flylog.geometry.kernels import CX, CY, FOCAL, LEFT, RIG_SIZE, ROWS, backproject
@@ -137,16 +137,14 @@ def best_candidates_into(candidates, fitness, n_depths, out):  # pragma: no cove
 
 @numba.njit(cache=True, nogil=True)
 def scouts_into(rng, k, c0, c1, in_right, n_depths, lrow, rrow, channels, rig_k, window, guard,
-                gy_weight, candidates, index, fitness,
+                measure, candidates, index, fitness,
                 out):  # fmt: skip  # pragma: no cover - compiled
     """One generation's scouts in one call (numba types the Generator once): candidates
     (:func:`scout_candidates_into`), their fitness on (H, W·C) uint8 rows (serial: a few
     hundred flies), the best of each scout into ``out``. ``candidates``, ``index``
     (0…n·K−1) and ``fitness`` are n·K long."""
     scout_candidates_into(rng, k, c0, c1, in_right, n_depths, candidates)
-    fitness_serial(
-        lrow, rrow, channels, candidates, index, rig_k, window, guard, gy_weight, fitness
-    )
+    fitness_serial(lrow, rrow, channels, candidates, index, rig_k, window, guard, measure, fitness)
     best_candidates_into(candidates, fitness, n_depths, out)
 
 
@@ -164,6 +162,9 @@ class Scouting:
         self._margin = margin
         self._window, self._guard = config.window, float(config.guard)
         self._gradient = config.gradient
+        self._similarity = config.similarity
+        self._subpixel = config.subpixel
+        self._measure = measure_code(config.gradient, config.similarity, config.subpixel)
         self._k = newcomer_constants(rig, config.d_min, config.d_max, margin)
         self._rig_k = rig_constants(rig)
         self._yaw = 0.0  # since the newest images
@@ -243,14 +244,14 @@ class Scouting:
             scouts_into(
                 rng, self._k, c0, c1, in_right, k, left.reshape(height, width * channels),
                 right.reshape(height, width * channels), channels, self._rig_k, self._window,
-                self._guard, gy_weight(self._gradient), self._candidates, self._index,
+                self._guard, self._measure, self._candidates, self._index,
                 self._fitness, xyz[len(xyz) - n :],
             )  # fmt: skip
         else:
             candidates = scout_candidates_numpy(rng, self._k, self._strip, n, k)
             fitness = fitness_numpy(
                 left, right, candidates, self.rig, self._window, self._guard,
-                gradient=self._gradient,
+                gradient=self._gradient, similarity=self._similarity, subpixel=self._subpixel,
             )  # fmt: skip
             xyz[len(xyz) - n :] = best_candidates_numpy(candidates, fitness, k)
         return n * k

@@ -139,6 +139,60 @@ def _fitness_figures(pair: StereoPair, rig: StereoRig) -> list[dict]:
     ]
 
 
+def _similarity_figures(pair: StereoPair, rig: StereoRig) -> list[dict]:
+    """ZNCC's and sub-pixel sampling's fitness evaluations per second against the zero-mean
+    SSD on whole pixels, the same flies in the same run (7×7 RGB, 640×480): all at once in
+    parallel, and in serial batches of 2500 as a generation's newcomers are scored; and whole
+    generations (5000 flies, every operator) with each."""
+    from flylog.fly import Similarity
+
+    rng = np.random.default_rng(0)
+    n = 1_000_000
+    u, v = rng.uniform(3, rig.width - 4, n), rng.uniform(3, rig.height - 4, n)
+    xyz = rig.backproject(u, v, 1.0 / rng.uniform(1 / 20.0, 1 / 0.5, n))
+    out = np.empty(n)
+    index = np.arange(n)
+    small = np.arange(2500)
+    variants = [(s, sub) for sub in (False, True) for s in Similarity]
+    rates: dict[tuple, float] = {}
+    for s, sub in variants:
+        kw = {"similarity": s, "subpixel": sub, "out": out}
+        fitness_numba(pair.left, pair.right, xyz[:1000], rig, 7, 1.0, similarity=s, subpixel=sub)
+        rates[s, sub, "parallel"] = _best_rate(
+            lambda kw=kw: fitness_numba(pair.left, pair.right, xyz, rig, 7, 1.0, index=index, **kw),
+            n,
+            5,
+        )
+        rates[s, sub, "batch"] = _best_rate(
+            lambda kw=kw: fitness_numba(pair.left, pair.right, xyz, rig, 7, 1.0, index=small, **kw),
+            2500,
+            50,
+        )
+        config = EngineConfig(similarity=s, subpixel=sub)
+        engine = FlyEngine(config, rig, np.random.default_rng(0))
+        engine.set_images(pair)
+        engine.steps(20)
+        rates[s, sub, "generations"] = _best_rate(lambda e=engine: e.steps(100), 100, 3)
+    labels = {
+        "parallel": ("fitness evaluations, numba parallel (7×7 RGB, 640×480)", "eval/s"),
+        "batch": ("fitness evaluations, numba serial batches of 2500", "eval/s"),
+        "generations": ("generations, 5000 flies, every operator", "gen/s"),
+    }
+    base = (Similarity.ZSSD, False)
+    return [
+        {
+            "name": f"{name}, {s.value}{', sub-pixel' if sub else ''}",
+            "value": rates[s, sub, key],
+            "unit": unit,
+            "reference": "the same with zssd on whole pixels",
+            "ratio": rates[s, sub, key] / rates[(*base, key)],
+        }
+        for key, (name, unit) in labels.items()
+        for s, sub in variants
+        if (s, sub) != base
+    ]
+
+
 def _rig_kernel_figures(pair: StereoPair, rig: StereoRig) -> list[dict]:
     """The real camera's kernel against the level-only kernel it generalises
     (tests/benchmarks/level_fitness.py), on the same flies in the same run, alternated:
@@ -477,6 +531,7 @@ def run(out_dir: Path) -> list[dict]:
     pair, depth, reading = _frame(rig)
     return (
         _fitness_figures(pair, rig)
+        + _similarity_figures(pair, rig)
         + _rig_kernel_figures(pair, rig)
         + _generation_figures(pair, depth, reading, rig)
         + _profile_figures(pair, reading, rig)

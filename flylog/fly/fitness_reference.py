@@ -1,0 +1,73 @@
+"""The fitness's numpy reference (:mod:`flylog.fly.fitness`): whole patches gathered, the
+compiled kernels' integer arithmetic, then the same float steps. The numpy backend runs it."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from flylog.fly.config import Gradient, Similarity
+from flylog.fly.fitness_terms import (
+    FRACTION,
+    FRACTION_BITS,
+    INVALID_FITNESS,
+    NCC_SCALE,
+    as_planes,
+    gy_weight,
+    subpixel_columns_numpy,
+    zncc_numpy,
+)
+from flylog.geometry import StereoRig
+
+
+def fitness_numpy(
+    left: np.ndarray,
+    right: np.ndarray,
+    xyz: np.ndarray,
+    rig: StereoRig,
+    window: int,
+    guard: float,
+    *,
+    gradient: Gradient = Gradient.NORM,
+    similarity: Similarity = Similarity.ZSSD,
+    subpixel: bool = False,
+) -> np.ndarray:
+    """Reference: the fitness of every fly of ``xyz`` (N, 3), by gathering whole patches;
+    ``subpixel``: the right patch interpolated at the exact right projection."""
+    left, right = as_planes(left), as_planes(right)
+    height, width, channels = left.shape
+    h = window // 2
+    n = window * window
+    u_left, u_right, v, depth = rig.project(np.asarray(xyz, dtype=np.float64))
+    ul, ur, vv = (np.floor(a + 0.5) for a in (u_left, u_right, v))
+    q = np.zeros(len(ur), dtype=np.int64)
+    if subpixel:
+        ur, q = subpixel_columns_numpy(u_left, u_right)
+    valid = (depth > 0) & (vv >= h) & (vv <= height - 1 - h)
+    for u in (ul, ur + (1 if subpixel else 0)):
+        valid &= (u >= h) & (u <= width - 1 - h)
+    valid &= ur >= h
+    out = np.full(len(depth), INVALID_FITNESS)
+    rows, ul_i, ur_i = (a[valid].astype(np.intp) for a in (vv, ul, ur))
+    off = np.arange(-h, h + 1)
+    r = rows[:, None, None] + off[None, :, None]
+    patch_l = left[r, ul_i[:, None, None] + off[None, None, :]].astype(np.int64)
+    patch_r = right[r, ur_i[:, None, None] + off[None, None, :]].astype(np.int64)
+    if subpixel:
+        nxt = right[r, ur_i[:, None, None] + off[None, None, :] + 1].astype(np.int64)
+        w = q[valid][:, None, None, None]
+        patch_r = ((FRACTION - w) * patch_r + w * nxt + FRACTION // 2) >> FRACTION_BITS
+    d = patch_l - patch_r  # (M, w, w, C)
+    s1 = d.sum(axis=(1, 2))
+    s2 = (d * d).sum(axis=(1, 2))
+    zssd = (n * s2 - s1 * s1).sum(axis=1) / n
+    c = patch_l[:, h - 1 : h + 2, h - 1 : h + 2]  # the 3×3 around the left projection
+    gx = (c[:, :, 2] - c[:, :, 0]) * np.array([1, 2, 1])[None, :, None]
+    gy = (c[:, 2, :] - c[:, 0, :]) * np.array([1, 2, 1])[None, :, None]
+    grad2 = (gx.sum(axis=1) ** 2 + gy_weight(gradient) * gy.sum(axis=1) ** 2).sum(axis=1)
+    g = np.sqrt(np.sqrt(grad2.astype(np.float64)))
+    if Similarity(similarity) is Similarity.ZNCC:
+        unlike = NCC_SCALE * n * channels * (1.0 - zncc_numpy(patch_l, patch_r))
+        out[valid] = g / (guard * n * channels + unlike)
+    else:
+        out[valid] = g / (zssd + guard * n * channels)
+    return out
