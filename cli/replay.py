@@ -172,10 +172,9 @@ def replay(
         # last: the cross-field check (sgbm runs one step per frame) sees the final options
         "stereo": Stereo(stereo) if stereo is not None else None,
     }
-    try:
-        config = replace_dotted(config, overrides)
-    except ValueError as exc:  # a cross-field check, e.g. sgbm with several generations
-        raise click.UsageError(str(exc)) from None
+    # a ConfigError (a range or a cross-field check, e.g. sgbm with several generations) is
+    # one line and exit 2, the option named where the check knows it
+    config = replace_dotted(config, overrides)
     bag = replace_dotted(
         BagOptions(),
         {"topics": topics or None, "pair_tolerance": pair_tolerance, "sonar_window": sonar_window},

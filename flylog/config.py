@@ -195,7 +195,7 @@ def _build(cls: type[T], data: Mapping[str, Any], prefix: str, problems: list[st
         return _BAD
     try:
         return cls(**kwargs)
-    except (ConfigError, ValueError, TypeError) as exc:  # cross-field checks in __post_init__
+    except ConfigError as exc:  # cross-field checks in __post_init__
         problems.append(f"{prefix + ': ' if prefix else ''}{exc}")
         return _BAD
 

@@ -10,6 +10,7 @@ import enum
 from dataclasses import dataclass
 
 from flylog.config import param
+from flylog.errors import ConfigError
 
 
 class SgbmMode(enum.Enum):
@@ -100,13 +101,13 @@ class SgbmConfig:
     def __post_init__(self) -> None:
         if self.num_disparities % 16 != 0:
             msg = f"num_disparities must be a multiple of 16, got {self.num_disparities}"
-            raise ValueError(msg)
+            raise ConfigError(msg)
         if self.block_size % 2 != 1:
             msg = f"block_size must be odd, got {self.block_size}"
-            raise ValueError(msg)
+            raise ConfigError(msg)
         if self.p2_factor <= self.p1_factor:
             msg = f"p2_factor ({self.p2_factor}) must exceed p1_factor ({self.p1_factor})"
-            raise ValueError(msg)
+            raise ConfigError(msg)
 
     @property
     def cost_ns(self) -> int:

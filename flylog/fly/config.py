@@ -6,6 +6,7 @@ import enum
 from dataclasses import dataclass
 
 from flylog.config import param
+from flylog.errors import ConfigError
 
 
 class Backend(enum.Enum):
@@ -147,13 +148,13 @@ class EngineConfig:
     def __post_init__(self) -> None:
         if self.window % 2 != 1:
             msg = f"window must be odd, got {self.window}"
-            raise ValueError(msg)
+            raise ConfigError(msg)
         if not self.d_min < self.d_max:
             msg = f"d_min ({self.d_min} m) must be below d_max ({self.d_max} m)"
-            raise ValueError(msg)
+            raise ConfigError(msg)
         if self.crossover2_rate + self.crossover3_rate > 1.0:
             msg = "crossover2_rate + crossover3_rate must not exceed 1"
-            raise ValueError(msg)
+            raise ConfigError(msg)
 
     @property
     def survivors(self) -> int:

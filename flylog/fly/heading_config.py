@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from flylog.config import param
+from flylog.errors import ConfigError
 from flylog.geometry import Pose2D
 
 
@@ -119,7 +120,7 @@ class HeadingConfig:
     def __post_init__(self) -> None:
         if self.window % 2 == 0:
             msg = f"heading.window must be odd, got {self.window}"
-            raise ValueError(msg)
+            raise ConfigError(msg)
 
     @property
     def scan_size(self) -> int:

@@ -7,6 +7,7 @@ import math
 from dataclasses import dataclass
 
 from flylog.config import param
+from flylog.errors import ConfigError
 
 
 class Relaxation(enum.Enum):
@@ -325,19 +326,19 @@ class PlannerConfig:
     def __post_init__(self) -> None:
         if not self.omega < 2.0:
             msg = f"omega must be below 2 for SOR to converge, got {self.omega}"
-            raise ValueError(msg)
+            raise ConfigError(msg)
         if not self.obstacle_weight > 0.0:
             msg = (
                 "obstacle_weight must be above 0 (a free cell walled in on four sides would "
                 f"have no neighbour to average), got {self.obstacle_weight}"
             )
-            raise ValueError(msg)
+            raise ConfigError(msg)
         if self.cells < 5:
             msg = (
                 f"extent {self.extent} m at cell size {self.cell_size} m gives {self.cells} "
                 "cells a side; need at least 5"
             )
-            raise ValueError(msg)
+            raise ConfigError(msg)
 
     @property
     def cells(self) -> int:

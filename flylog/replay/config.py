@@ -10,6 +10,7 @@ from pathlib import Path
 
 from flylog.baseline.config import SgbmConfig
 from flylog.config import from_mapping, param, read_toml
+from flylog.errors import ConfigError
 from flylog.fly.config import EngineConfig
 from flylog.fly.heading import HeadingConfig
 from flylog.fly.obstacles import ObstacleFlies
@@ -88,7 +89,7 @@ class ReplayConfig:
                 "stereo = sgbm processes each frame once: generations_per_frame must be 0 or "
                 f"1, got {self.generations_per_frame}"
             )
-            raise ValueError(msg)
+            raise ConfigError(msg)
 
     @property
     def mode(self) -> Mode:

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from flylog.errors import ConfigError
 from flylog.fly.heading import (
     HeadingConfig,
     comparable_flies,
@@ -146,7 +147,7 @@ def test_the_scan_is_symmetric_and_an_even_window_is_refused():
     assert len(offsets) == 13
     np.testing.assert_allclose(offsets, -offsets[::-1])
     assert offsets[6] == 0.0
-    with pytest.raises(ValueError, match=r"heading\.window must be odd"):
+    with pytest.raises(ConfigError, match=r"heading\.window must be odd"):
         HeadingConfig(window=6)
 
 

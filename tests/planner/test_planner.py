@@ -442,7 +442,7 @@ def _has_lower_neighbour(u: np.ndarray, i: int, j: int) -> bool:
 
 
 def test_obstacle_weight_must_be_positive():
-    with pytest.raises(ValueError, match="obstacle_weight must be above 0"):
+    with pytest.raises(ConfigError, match="obstacle_weight must be above 0"):
         PlannerConfig(obstacle_weight=0.0)
 
 
