@@ -183,6 +183,12 @@ class Finite(click.FloatRange):
 
     name = "finite number"
 
+    def _describe_range(self) -> str:
+        """'finite' for an unbounded one (click would print ``x<=None``)."""
+        if self.min is None and self.max is None:
+            return "finite"
+        return super()._describe_range()
+
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         number = click.FLOAT.convert(value, param, ctx)
         if not math.isfinite(number):

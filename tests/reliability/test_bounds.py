@@ -134,3 +134,12 @@ def test_scene_files_that_cannot_be_driven_are_errors(text, message):
     with pytest.raises(ConfigError) as info:
         parse_scene(text, "s.toml")
     assert str(info.value).startswith(message), str(info.value)
+
+
+def test_an_unbounded_finite_option_says_finite_in_its_help():
+    from flylog.cli.common import Finite
+
+    assert Finite()._describe_range() == "finite"
+    assert Finite(min=0.1)._describe_range() == "x>=0.1"
+    text = run("simulate", "--help").output
+    assert "x<=None" not in text and "[finite]" in text
