@@ -196,19 +196,22 @@ class Finite(click.FloatRange):
         return super().convert(number, param, ctx)
 
 
+def _finite_pair(value: str, names: str, unit: str, example: str) -> tuple[float, float]:
+    """Two finite numbers ``A,B`` (``names`` such as "X,Y", in ``unit``), else BadParameter."""
+    try:
+        a, b = (float(p) for p in value.split(","))
+    except ValueError:
+        msg = f"expected {names} in {unit}, e.g. {example}, got {value!r}"
+        raise click.BadParameter(msg) from None
+    if not (math.isfinite(a) and math.isfinite(b)):
+        msg = f"expected finite {names} in {unit}, got {value!r}"
+        raise click.BadParameter(msg)
+    return a, b
+
+
 def point(ctx: click.Context, param: click.Parameter, value: str | None):
     """Parse ``X,Y`` in metres (finite numbers) for --goal."""
-    if value is None:
-        return None
-    try:
-        x, y = (float(p) for p in value.split(","))
-    except ValueError:
-        msg = f"expected X,Y in metres, e.g. 10,0.5, got {value!r}"
-        raise click.BadParameter(msg) from None
-    if not (math.isfinite(x) and math.isfinite(y)):
-        msg = f"expected finite X,Y in metres, got {value!r}"
-        raise click.BadParameter(msg)
-    return (x, y)
+    return None if value is None else _finite_pair(value, "X,Y", "metres", "10,0.5")
 
 
 SIZE_UNITS = {"": 1, "K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40}
@@ -261,17 +264,7 @@ def principal_point(
     ctx: click.Context, param: click.Parameter, value: str | None
 ) -> tuple[float, float] | None:
     """Parse ``CX,CY`` (pixels) for --principal-point."""
-    if value is None:
-        return None
-    try:
-        cx, cy = (float(p) for p in value.split(","))
-    except ValueError:
-        msg = f"expected CX,CY in pixels, e.g. 319.5,239.5, got {value!r}"
-        raise click.BadParameter(msg) from None
-    if not (math.isfinite(cx) and math.isfinite(cy)):
-        msg = f"expected finite CX,CY in pixels, got {value!r}"
-        raise click.BadParameter(msg)
-    return cx, cy
+    return None if value is None else _finite_pair(value, "CX,CY", "pixels", "319.5,239.5")
 
 
 def human_bytes(n: float) -> str:
