@@ -54,9 +54,9 @@ def check_run_log(
     if stored is not None and not same_file and stored != actual:
         msg = (
             f"{run} was replayed from {meta.get('log', 'another log')} (fingerprint {stored}), "
-            f"not from {log} (fingerprint {actual}): give --log the log the run was made from"
+            f"not from {log} (fingerprint {actual}): score it against the log it was made from"
         )
-        raise LogError(msg)
+        raise LogError(msg, parameter="log")
     return actual
 
 

@@ -95,7 +95,8 @@ def replay_inputs(reader: LogReader, *, goal: tuple[float, float] | None) -> Rep
         elif dataset is not None:
             planner, goal = False, (start.x, start.y)
             msg = (
-                f"{reader.path} has no goal: replaying without a planner (give one with --goal X,Y)"
+                f"{reader.path} has no goal: replaying without a planner (a goal given to "
+                f"replay turns it on)"
             )
             warnings.warn(msg, DatasetLogWarning, stacklevel=2)
         else:

@@ -61,7 +61,7 @@ def open_source(
     if goal is None:
         msg = (
             f"{log} gives no goal: replaying the engine only (flies and the table), the "
-            f"planner off; give a goal with --goal X,Y"
+            f"planner off (a goal given to replay turns it on)"
         )
         warnings.warn(msg, PlannerOffWarning, stacklevel=2)
     inputs = ReplayInputs(

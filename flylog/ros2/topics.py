@@ -39,8 +39,10 @@ def parse_overrides(items: tuple[str, ...]) -> dict[str, str]:
     for item in items:
         role, sep, value = item.partition("=")
         if not sep or role not in ROLES or not value:
-            msg = f"--topic {item!r}: expected ROLE=TOPIC with ROLE one of {', '.join(ROLES)}"
-            raise LogError(msg)
+            msg = (
+                f"topic override {item!r}: expected ROLE=TOPIC with ROLE one of {', '.join(ROLES)}"
+            )
+            raise LogError(msg, parameter="topics")
         out[role] = value
     return out
 
@@ -83,8 +85,8 @@ def assign_roles(bag: Path, topics: Mapping[str, TopicInfo], overrides: Mapping[
             why = "no image topic with" if not named else "several image topics with"
             problems.append(
                 f"{side}: {why} '{side}' in its name and a camera_info beside it "
-                f"(candidates: {_listing(seen, types.IMAGE_TYPES)}); choose with "
-                f"--topic {side}=TOPIC"
+                f"(candidates: {_listing(seen, types.IMAGE_TYPES)}); choose one "
+                f"with the override {side}=TOPIC"
             )
     infos: dict[str, str] = {}
     for side, topic in chosen.items():
@@ -100,7 +102,7 @@ def assign_roles(bag: Path, topics: Mapping[str, TopicInfo], overrides: Mapping[
     sonars = _sonars(seen, overrides, problems)
     if problems:
         msg = f"{bag}: cannot tell which topics to replay:\n  " + "\n  ".join(problems)
-        raise LogError(msg)
+        raise LogError(msg, parameter="topics")
     return Roles(
         chosen["left"], chosen["right"], infos["left"], infos["right"], odom, odom_from_tf,
         sonars,
@@ -125,7 +127,7 @@ def _odometry(
     if len(found) > 1:
         problems.append(
             f"odom: several Odometry topics (candidates: {_listing(seen, (types.ODOMETRY,))}); "
-            f"choose with --topic odom=TOPIC"
+            f"choose one with the override odom=TOPIC"
         )
         return None, False
     if seen.get(types.TF, TopicInfo("", 0)).schema == types.TF_MESSAGE:

@@ -209,6 +209,6 @@ def make_executor(backend: Backend, workers: int, *, address: str | None = None)
     if backend is Backend.RAY:
         return RayCluster(workers, address=address)
     if address is not None:
-        msg = "--address goes with --backend ray"
-        raise ConfigError(msg)
+        msg = "a cluster address needs the Ray backend"
+        raise ConfigError(msg, parameter="address")
     return ProcessPool(workers)

@@ -51,7 +51,8 @@ def test_metrics_refuses_another_log_naming_both_files(sensor_log, tmp_path):
         score_run(run, OTHER_LOG)
     text = str(info.value)
     assert f"{run} was replayed from {sensor_log}" in text
-    assert f"not from {OTHER_LOG}" in text and "give --log the log the run was made from" in text
+    assert f"not from {OTHER_LOG}" in text and "score it against the log it was made from" in text
+    assert info.value.parameter == "log"  # the CLI names its --log
 
 
 def test_the_metrics_command_exits_2_on_another_log(sensor_log, tmp_path, capsys):
