@@ -7,7 +7,8 @@ from __future__ import annotations
 
 import io
 import struct
-from typing import IO
+from collections.abc import Callable, Iterable
+from typing import IO, Any, TypeVar
 
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
@@ -33,44 +34,26 @@ def _record_at(fh: IO[bytes], offset: int, length: int, opcode: int) -> bytes:
     return record[_RECORD.size :]
 
 
-def indexed_attachments(
-    fh: IO[bytes], summary: Summary, shift: int = 0, *, require_crcs: bool = True
-) -> tuple[list[Attachment], list[str]]:
-    """The attachments the summary indexes, each where its index says or ``shift`` bytes
-    further (the first that passes its checks), and a description of each one skipped."""
-    found, skipped = [], []
-    for index in summary.attachment_indexes:
+R = TypeVar("R", Attachment, Metadata)
+
+
+def _indexed(
+    fh: IO[bytes],
+    indexes: Iterable[Any],
+    shift: int,
+    opcode: int,
+    parse: Callable[[bytes], R],
+) -> tuple[list[R], list[str]]:
+    """The records ``indexes`` place (each where its index says or ``shift`` bytes further:
+    the first that ``parse`` accepts and that carries its index's name), and a description
+    of each one skipped."""
+    found: list[R] = []
+    skipped: list[str] = []
+    for index in indexes:
         failure: Exception | None = None
         for offset in (index.offset, index.offset + shift) if shift else (index.offset,):
             try:
-                body = _record_at(fh, offset, index.length, Opcode.ATTACHMENT)
-                attachment = checked_attachment(body, require_crc=require_crcs)
-                if attachment.name != index.name:
-                    msg = f"it is named '{attachment.name}'"
-                    raise ValueError(msg)
-            except Exception as exc:  # tried further, or skipped and named
-                failure = failure or exc
-                continue
-            found.append(attachment)
-            break
-        else:
-            skipped.append(f"'{index.name}' at byte {index.offset} ({failure})")
-    return found, skipped
-
-
-def indexed_metadata(
-    fh: IO[bytes], summary: Summary, shift: int = 0
-) -> tuple[list[Metadata], list[str]]:
-    """The metadata records the summary indexes, each where its index says or ``shift``
-    bytes further (the first that parses with its index's name), and a description of each
-    one skipped. MCAP gives them no CRC: a record is skipped only when it cannot be parsed."""
-    found, skipped = [], []
-    for index in summary.metadata_indexes:
-        failure: Exception | None = None
-        for offset in (index.offset, index.offset + shift) if shift else (index.offset,):
-            try:
-                body = _record_at(fh, offset, index.length, Opcode.METADATA)
-                record = Metadata.read(ReadDataStream(io.BytesIO(body)))
+                record = parse(_record_at(fh, offset, index.length, opcode))
                 if record.name != index.name:
                     msg = f"it is named '{record.name}'"
                     raise ValueError(msg)
@@ -82,3 +65,26 @@ def indexed_metadata(
         else:
             skipped.append(f"'{index.name}' at byte {index.offset} ({failure})")
     return found, skipped
+
+
+def indexed_attachments(
+    fh: IO[bytes], summary: Summary, shift: int = 0, *, require_crcs: bool = True
+) -> tuple[list[Attachment], list[str]]:
+    """The attachments the summary indexes, each where its index says or ``shift`` bytes
+    further (the first that passes its checks), and a description of each one skipped."""
+    return _indexed(
+        fh, summary.attachment_indexes, shift, Opcode.ATTACHMENT,
+        lambda body: checked_attachment(body, require_crc=require_crcs),
+    )  # fmt: skip
+
+
+def indexed_metadata(
+    fh: IO[bytes], summary: Summary, shift: int = 0
+) -> tuple[list[Metadata], list[str]]:
+    """The metadata records the summary indexes, each where its index says or ``shift``
+    bytes further (the first that parses with its index's name), and a description of each
+    one skipped. MCAP gives them no CRC: a record is skipped only when it cannot be parsed."""
+    return _indexed(
+        fh, summary.metadata_indexes, shift, Opcode.METADATA,
+        lambda body: Metadata.read(ReadDataStream(io.BytesIO(body))),
+    )  # fmt: skip
