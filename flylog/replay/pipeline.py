@@ -140,6 +140,7 @@ class FlyPipeline:
         write_tf: bool = True,
         on_row: Callable[[dict[str, Any]], None] | None = None,
         planner_thread: bool = False,
+        planner: bool = True,
     ) -> None:
         self.config = config
         self.rig = rig
@@ -151,7 +152,12 @@ class FlyPipeline:
         self.published = Publication(self.engine, start)
         self._candidates = Candidates(config.obstacles)
         self._jobs = PlannerJobs(
-            config, rig, self.planner, write_tf=write_tf, rows=on_row is not None
+            config,
+            rig,
+            self.planner,
+            write_tf=write_tf,
+            rows=on_row is not None,
+            planner_outputs=planner,
         )
         self._queue = OutputQueue(write, on_row, threaded=planner_thread)
         self._last_stats: GenerationStats | None = None
@@ -162,7 +168,7 @@ class FlyPipeline:
         self._owed_evaluations = 0
         self._evaluations = 0
         self.snapshots = 0
-        if config.planner.warm_start_sweeps:
+        if planner and config.planner.warm_start_sweeps:
             self._queue.submit(self._jobs.warm_start)  # on the worker, while the engine starts
 
     @property

@@ -60,7 +60,8 @@ class SnapshotInputs:
 
 class PlannerJobs:
     """The planner's work for the pipeline; ``write_tf`` adds odom → base_link to each
-    snapshot, ``rows`` makes each tick's row of the per-step table."""
+    snapshot, ``rows`` makes each tick's row of the per-step table; without
+    ``planner_outputs`` snapshots hold the flies only."""
 
     def __init__(
         self,
@@ -70,12 +71,14 @@ class PlannerJobs:
         *,
         write_tf: bool,
         rows: bool,
+        planner_outputs: bool = True,
     ) -> None:
         self.config = config
         self.rig = rig
         self.planner = planner
         self._write_tf = write_tf
         self._rows = rows
+        self._planner_outputs = planner_outputs
         self._mapping_range = config.planner.mapping_range(rig.focal_px, rig.baseline)
         self._evidence = Evidence(config.obstacles, rig, config.engine)
 
@@ -173,7 +176,9 @@ class PlannerJobs:
             if self._write_tf:
                 transform = encode.odom_transform(robot_pose)
                 messages.append((contract.TF, t_ns, encode.frame_transforms([transform], t_ns)))
-        return Outputs(messages + self._planner_snapshot(t_ns, robot_pose))
+        if self._planner_outputs:
+            messages += self._planner_snapshot(t_ns, robot_pose)
+        return Outputs(messages)
 
     def _planner_snapshot(self, t_ns: int, robot_pose: Pose2D) -> list[tuple[str, int, Any]]:
         """The potential and the path the robot would follow from ``robot_pose``, now."""

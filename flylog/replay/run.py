@@ -25,7 +25,6 @@ from flylog.replay.source import (
     PLANNER_OFF,
     READ_AHEAD_MESSAGES,
     open_source,
-    planner_off_write,
 )
 from flylog.ros2.config import BagOptions
 
@@ -159,9 +158,10 @@ def replay(
                 inputs.rig,
                 inputs.start,
                 inputs.goal,
-                out.write if source.planner else planner_off_write(out.write),
+                out.write,
                 on_row=rows.append,
                 planner_thread=True,
+                planner=source.planner,
             )
             try:
                 clock = VirtualClock(

@@ -7,7 +7,6 @@ import warnings
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from flylog.geometry import Pose2D
 from flylog.io.pairing import pair_stereo
@@ -20,7 +19,6 @@ from flylog.ros2.config import BagOptions
 # Messages decoded ahead of the replay by a reading thread: about ten frames of stereo pairs
 # (≈ 20 MB at 640×480), enough to hide a chunk's decompression behind the engine's work.
 READ_AHEAD_MESSAGES = 64
-PLANNER_PREFIX = "/planner/"
 PLANNER_OFF = "off"
 
 
@@ -75,13 +73,3 @@ def open_source(
         has_planner=goal is not None,
     )
     return ReplaySource(inputs, source.records(), goal is not None, lambda: source.unpaired)
-
-
-def planner_off_write(write: Callable[[str, int, Any], None]) -> Callable[[str, int, Any], None]:
-    """``write`` without the planner's topics (a run without a goal)."""
-
-    def kept(topic: str, t_ns: int, message: Any) -> None:
-        if not topic.startswith(PLANNER_PREFIX):
-            write(topic, t_ns, message)
-
-    return kept
