@@ -98,7 +98,7 @@ def _sgbm_dense(
     """The dense map's columns: SGBM on each ground-truth frame, pooled over them."""
     from flylog.baseline.sgbm import disparity_px, grey_levels, stereo_matcher
 
-    matcher = stereo_matcher(config)
+    matcher = stereo_matcher(config, rig.doffs)
     wanted = {int(t): k for k, t in enumerate(stamps)}
     errors, known, matched = [], 0, 0
     for pair in open_log(log).stereo_pairs():

@@ -218,7 +218,7 @@ def score_points(
 def score_dense(
     dense: np.ndarray, truth: np.ndarray, rig: StereoRig, config: MetricsConfig
 ) -> ImageScore:
-    """Score a dense disparity map (px; negative or NaN: none) at every pixel it matched."""
-    v, u = np.nonzero(np.isfinite(dense) & (dense >= 0))
+    """Score a dense disparity map (px; NaN: none) at every pixel it matched."""
+    v, u = np.nonzero(np.isfinite(dense))
     d = dense[v, u].astype(np.float64)
     return score_pixels(u, v, d, rig.depth_of_disparity(d), truth, rig, config)
