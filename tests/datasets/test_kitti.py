@@ -191,3 +191,14 @@ def test_frames_refuses_a_missing_right_frame_and_other_formats_writing_nothing(
     with pytest.raises(LogError, match="multiview frames are KITTI's stereo benchmarks'"):
         import_dataset("middlebury", tmp_path / "k", tmp_path / "x.mcap", multiview=True)
     assert not (tmp_path / "x.mcap").exists()
+
+
+def test_a_frame_failing_while_writing_leaves_no_log_behind(multiview, tmp_path):
+    _, rig, pairs, disparity = multiview
+    frames = [(9 + k, p.left, p.right) for k, p in enumerate(pairs)]
+    write_kitti_multiview(tmp_path / "k", rig, [frames, frames], [disparity, disparity])
+    # scene 000001's frame 11 is checked to exist, and found unreadable only when written
+    (tmp_path / "k" / "training" / "image_2" / "000001_11.png").write_bytes(b"not a png")
+    with pytest.raises(LogError, match=r"000001_11\.png: not a readable image"):
+        import_dataset("kitti", tmp_path / "k", tmp_path / "out", multiview=True)
+    assert not (tmp_path / "out").exists()  # 000000.mcap, written first, is removed
