@@ -202,3 +202,18 @@ def test_a_frame_failing_while_writing_leaves_no_log_behind(multiview, tmp_path)
     with pytest.raises(LogError, match=r"000001_11\.png: not a readable image"):
         import_dataset("kitti", tmp_path / "k", tmp_path / "out", multiview=True)
     assert not (tmp_path / "out").exists()  # 000000.mcap, written first, is removed
+
+
+def test_the_cli_imports_multiview_frames_with_frames(multiview, tmp_path):
+    from click.testing import CliRunner
+
+    from flylog.cli.main import cli
+
+    root, *_ = multiview
+    out = tmp_path / "seq.mcap"
+    args = ["import", "kitti", str(root), "-o", str(out), "--frames", "--scene", "000000"]
+    result = CliRunner().invoke(cli, args)
+    assert result.exit_code == 0, result.output
+    assert f"wrote {out} (3 stereo pairs, " in " ".join(result.output.split())
+    help_text = CliRunner().invoke(cli, ["import", "--help"]).output
+    assert "--frames" in help_text and "10 Hz" in help_text
