@@ -28,9 +28,11 @@ class SgbmConfig:
 
     num_disparities: int = param(
         64,
-        help="disparity search range (a multiple of 16); the nearest depth seen is "
-        "focal·baseline / num_disparities (0.94 m at 640×480 with the scenes' 500 px, 0.12 m "
-        "rig), and the leftmost num_disparities columns of the left image get no disparity",
+        help="disparity search range (a multiple of 16), from 0 (from ⌊−doffs⌋ for a rig "
+        "with doffs < 0); the nearest depth seen is about focal·baseline / "
+        "(num_disparities + max(doffs, 0)) (0.94 m at 640×480 with the scenes' 500 px, "
+        "0.12 m rig, doffs 0), and the leftmost columns of the left image, as many as the "
+        "search's largest disparity, get no disparity",
         unit="px",
         min=16,
         max=1024,

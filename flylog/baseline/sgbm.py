@@ -8,7 +8,8 @@ the newest stereo pair completely:
 1. dense disparity with ``cv2.StereoSGBM`` (left image as reference, sub-pixel, with
    OpenCV's uniqueness, left-right and speckle checks);
 2. the *valid* pixels: a disparity d at least focal·baseline / ``max_depth`` − doffs (d =
-   f·B/Z − doffs, the rig's right-camera offset);
+   f·B/Z − doffs, the rig's right-camera offset; the search starts at
+   :func:`search_start_px`, ⌊−doffs⌋ when doffs < 0, else 0);
 3. ``points`` of them, evenly spaced in raster order (every k-th valid pixel, so the cloud
    covers the valid pixels with a uniform density and is the same for the same images);
 4. at depth f·B/(d + doffs), back-projected with :meth:`StereoRig.backproject` (principal
@@ -32,6 +33,8 @@ ignored, so the comparison with the flies isolates what fusion and asynchrony ad
 """
 
 from __future__ import annotations
+
+import math
 
 import cv2
 import numpy as np
@@ -57,12 +60,23 @@ _CV_MODES = {
 _IDENTITY = Pose2D(0.0, 0.0, 0.0)
 
 
-def stereo_matcher(config: SgbmConfig) -> cv2.StereoSGBM:
-    """The OpenCV matcher the configuration describes."""
+def search_start_px(doffs: float) -> int:
+    """The matcher's smallest disparity (px) for a rig's ``doffs``: 0, or with doffs < 0
+    (every point's disparity f·B/Z − doffs exceeds −doffs) the disparity at infinity
+    ⌊−doffs⌋, so the search range covers depths from f·B/num_disparities to infinity as it
+    does for doffs = 0. With doffs > 0 the search starts at 0: a dataset with doffs > 0
+    (Middlebury) crops its pairs so that disparities are ≥ 0, and the range then reaches
+    the nearer depths f·B/(num_disparities + doffs) (on the Motorcycle pair, doffs
+    31.086 px, true disparities 7.2–59.9 px: all inside [0, 64))."""
+    return max(0, math.floor(-doffs))
+
+
+def stereo_matcher(config: SgbmConfig, doffs: float = 0.0) -> cv2.StereoSGBM:
+    """The OpenCV matcher the configuration describes, for a rig's ``doffs``."""
     channels = 1 if config.grey else 3
     area = channels * config.block_size**2
     return cv2.StereoSGBM.create(
-        minDisparity=0,
+        minDisparity=search_start_px(doffs),
         numDisparities=config.num_disparities,
         blockSize=config.block_size,
         P1=config.p1_factor * area,
@@ -83,11 +97,12 @@ def grey_levels(image: np.ndarray) -> np.ndarray:
 
 
 def disparity_px(matcher: cv2.StereoSGBM, left: np.ndarray, right: np.ndarray) -> np.ndarray:
-    """(H, W) float32 disparity uL − uR in pixels (sub-pixel); negative where none was found
-    (OpenCV marks those minDisparity − 1 = −1)."""
+    """(H, W) float32 disparity uL − uR in pixels (sub-pixel); NaN where none was found
+    (OpenCV marks those minDisparity − 1)."""
     fixed = matcher.compute(np.ascontiguousarray(left), np.ascontiguousarray(right))
     # StereoSGBM returns 4 fractional bits.
-    return fixed.astype(np.float32) / np.float32(16.0)
+    found = fixed >= 16 * matcher.getMinDisparity()
+    return np.where(found, fixed.astype(np.float32) / np.float32(16.0), np.float32(np.nan))
 
 
 def texture_confidence(
@@ -130,10 +145,12 @@ class SgbmEngine:
         if rig.baseline <= 0:
             msg = f"stereo matching needs a stereo baseline > 0, got {rig.baseline} m"
             raise FlylogError(msg)
-        if config.num_disparities >= rig.width:
+        start = search_start_px(rig.doffs)
+        if start + config.num_disparities >= rig.width:
             msg = (
                 f"sgbm.num_disparities ({config.num_disparities} px) must be below the image "
                 f"width ({rig.width} px)"
+                + (f" less the rig's disparity at infinity ({start} px)" if start else "")
             )
             raise FlylogError(msg)
         if points < 1:
@@ -142,9 +159,9 @@ class SgbmEngine:
         self.config = config
         self.rig = rig
         self.points = points
-        self._matcher = stereo_matcher(config)
-        # measured disparities are f·B/Z − doffs; the matcher searches from 0 (and marks
-        # failures −1), so with doffs > 0 points beyond f·B/doffs are not found
+        self._matcher = stereo_matcher(config, rig.doffs)
+        # measured disparities are f·B/Z − doffs; the matcher searches from
+        # search_start_px(doffs), so with doffs > 0 points beyond f·B/doffs are not found
         self._min_disparity = max(rig.fb / config.max_depth - rig.doffs, 0.0)
         self._pop = Population.fresh(np.empty((0, 3)))
         self._pair: StereoPair | None = None

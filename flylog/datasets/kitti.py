@@ -1,11 +1,17 @@
 """The KITTI stereo layouts: the 2012/2015 stereo benchmarks and the odometry sequences.
 
-- Stereo (``training/`` or ``testing/``): ``image_2/NNNNNN_10.png`` (left, colour),
-  ``image_3/NNNNNN_10.png`` (right), the calibration ``calib_cam_to_cam/NNNNNN.txt``
-  (2015: ``P_rect_02``, ``P_rect_03``) or ``calib/NNNNNN.txt`` (2012: ``P2``, ``P3``), and
-  the ground truth ``disp_occ_0/NNNNNN_10.png`` (all pixels; else ``disp_noc_0``, the
-  non-occluded ones): uint16, disparity = value / 256, 0 = unknown. One log per pair, at
-  log time 0.
+- Stereo 2015 (``training/`` or ``testing/``): ``image_2/NNNNNN_XX.png`` (left, colour) and
+  ``image_3/NNNNNN_XX.png`` (right) for the frames XX = 00 … 20 of scene NNNNNN, the
+  calibration ``calib_cam_to_cam/NNNNNN.txt`` (``P_rect_02``, ``P_rect_03``; or
+  ``calib/NNNNNN.txt``, ``P2``, ``P3``), and the ground truth of frame 10 only,
+  ``disp_occ_0/NNNNNN_10.png`` (all pixels; else ``disp_noc_0``, the non-occluded ones):
+  uint16, disparity = value / 256, 0 = unknown.
+- Stereo 2012: the grey pair ``image_0``/``image_1`` (cameras 0 and 1, ``calib/NNNNNN.txt``
+  ``P0``, ``P1``) with the ground truth ``disp_occ``/``disp_noc`` (aligned with image_0), or
+  without it the colour pair ``colored_0``/``colored_1`` (cameras 2 and 3, ``P2``, ``P3``),
+  which image_0's ground truth does not fit (the colour cameras sit 6 cm from the grey).
+- A scene is its frame 10 at log time 0 (a one-frame log), or with ``multiview`` all its
+  frames, frame k at k × 100 ms (KITTI's 10 Hz), the ground truth at frame 10.
 - Odometry (``sequences/NN/``): ``image_2/NNNNNN.png``, ``image_3/NNNNNN.png``,
   ``calib.txt`` (``P2``, ``P3``), ``times.txt`` (s per frame) and, beside ``sequences/``,
   ``poses/NN.txt``: per frame the 3×4 pose [R | t] of camera 0 in camera 0's frame at the
@@ -13,8 +19,9 @@
   ``/truth/pose`` of the colour cameras' midpoint, projected on the ground plane (the
   camera's x–z plane; its height, pitch and roll are dropped, with a warning).
 
-The images are rectified: the rig is P2's focal length and principal point, the baseline
-(P2[0,3] − P3[0,3]) / f, doffs P3's cx − P2's. KITTI gives no robot: the log has no mount.
+The images are rectified: the rig is the left projection's focal length and principal
+point, the baseline (P_left[0,3] − P_right[0,3]) / f, doffs the right cx − the left's.
+KITTI gives no robot: the log has no mount.
 """
 
 from __future__ import annotations
@@ -23,6 +30,7 @@ import dataclasses
 import math
 import warnings
 from collections.abc import Iterator
+from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
 
@@ -34,16 +42,43 @@ from flylog.errors import LogError
 from flylog.geometry import Pose2D, StereoRig
 
 STEREO_LAYOUT = (
-    "KITTI stereo: training/image_2/NNNNNN_10.png, training/image_3/NNNNNN_10.png, "
-    "training/calib_cam_to_cam/NNNNNN.txt (P_rect_02, P_rect_03) or training/calib/NNNNNN.txt "
-    "(P2, P3), and training/disp_occ_0/NNNNNN_10.png"
+    "KITTI stereo 2015: training/image_2/NNNNNN_10.png, training/image_3/NNNNNN_10.png, "
+    "training/calib_cam_to_cam/NNNNNN.txt (P_rect_02, P_rect_03) and "
+    "training/disp_occ_0/NNNNNN_10.png; KITTI stereo 2012: training/image_0/NNNNNN_10.png, "
+    "training/image_1/NNNNNN_10.png (or colored_0, colored_1), training/calib/NNNNNN.txt "
+    "(P0, P1; P2, P3 for colored_*) and training/disp_occ/NNNNNN_10.png"
 )
 ODOMETRY_LAYOUT = (
     "KITTI odometry: sequences/NN/image_2/NNNNNN.png, sequences/NN/image_3/NNNNNN.png, "
     "sequences/NN/calib.txt (P2, P3), sequences/NN/times.txt and poses/NN.txt"
 )
 TRUTH_FOLDERS = ("disp_occ_0", "disp_noc_0", "disp_occ", "disp_noc")
-_REFERENCE = "_10"  # the stereo benchmarks' pair with ground truth
+REFERENCE_FRAME = 10  # the stereo benchmarks' frame with ground truth (NNNNNN_10)
+MULTIVIEW_FRAMES = 21  # NNNNNN_00 … NNNNNN_20
+MULTIVIEW_RATE_HZ = 10.0  # KITTI's cameras are triggered at 10 Hz
+
+
+@dataclass(frozen=True)
+class StereoFolders:
+    """One of the stereo benchmarks' pairs of image folders, and its calibration keys."""
+
+    left: str
+    right: str
+    calib: tuple[tuple[str, str, str], ...]  # (folder, left key, right key), first found
+    truth: bool  # whether the benchmark's ground truth is aligned with ``left``
+
+
+# In this order: 2015 (image_2/image_3, colour cameras 2 and 3); 2012's grey pair (cameras
+# 0 and 1: the benchmark's pair, its ground truth aligned with image_0); 2012's colour pair
+# (cameras 2 and 3, 6 cm from camera 0: image_0's ground truth does not apply to it).
+STEREO_FOLDERS = (
+    StereoFolders(
+        "image_2", "image_3",
+        (("calib_cam_to_cam", "P_rect_02", "P_rect_03"), ("calib", "P2", "P3")), truth=True,
+    ),
+    StereoFolders("image_0", "image_1", (("calib", "P0", "P1"),), truth=True),
+    StereoFolders("colored_0", "colored_1", (("calib", "P2", "P3"),), truth=False),
+)  # fmt: skip
 
 
 class KittiPoseWarning(UserWarning):
@@ -62,34 +97,44 @@ def read_calibration(path: Path) -> dict[str, np.ndarray]:
     return out
 
 
-def _projections(path: Path) -> tuple[np.ndarray, np.ndarray]:
+COLOUR_KEYS = (("P_rect_02", "P_rect_03"), ("P2", "P3"))
+
+
+def _projections(path: Path, keys: tuple[tuple[str, str], ...]) -> tuple[np.ndarray, np.ndarray]:
     calib = read_calibration(path)
-    for left, right in (("P_rect_02", "P_rect_03"), ("P2", "P3")):
+    for left, right in keys:
         if left in calib and right in calib:
-            p2, p3 = calib[left], calib[right]
-            if p2.size == 12 and p3.size == 12:
-                return p2.reshape(3, 4), p3.reshape(3, 4)
+            p_left, p_right = calib[left], calib[right]
+            if p_left.size == 12 and p_right.size == 12:
+                return p_left.reshape(3, 4), p_right.reshape(3, 4)
+    wanted = " or ".join(f"{left}/{right}" for left, right in keys)
     msg = (
-        f"{path}: no P_rect_02/P_rect_03 or P2/P3 line of 12 numbers (the left and right "
-        "colour cameras' rectified projections)"
+        f"{path}: no {wanted} line of 12 numbers (the left and right cameras' rectified "
+        "projections)"
     )
     raise LogError(msg)
 
 
-def calibration_rig(path: Path, width: int, height: int) -> tuple[StereoRig, float]:
-    """The rig of P2/P3 at ``width``×``height``, and the x of the pair's midpoint in camera
-    0's frame (m; KITTI's poses are camera 0's)."""
-    p2, p3 = _projections(path)
+def calibration_rig(
+    path: Path, width: int, height: int, keys: tuple[tuple[str, str], ...] = COLOUR_KEYS
+) -> tuple[StereoRig, float]:
+    """The rig of the first (left, right) projections of ``keys`` in the file (P2/P3 by
+    default) at ``width``×``height``, and the x of the pair's midpoint in camera 0's frame
+    (m; KITTI's poses are camera 0's)."""
+    p2, p3 = _projections(path, keys)
     f = float(p2[0, 0])
     if not (np.isclose(p2[1, 1], f) and np.isclose(p3[0, 0], f) and np.isclose(p3[1, 1], f)):
-        msg = f"{path}: P2 and P3 must share one focal length (square pixels)"
+        msg = f"{path}: the two projections must share one focal length (square pixels)"
         raise LogError(msg)
     if not np.isclose(p2[1, 2], p3[1, 2]):
-        msg = f"{path}: P2 and P3 have different cy: not a rectified pair"
+        msg = f"{path}: the two projections have different cy: not a rectified pair"
         raise LogError(msg)
     baseline = (float(p2[0, 3]) - float(p3[0, 3])) / f
     if baseline <= 0:
-        msg = f"{path}: P2 and P3 give a baseline of {baseline} m; the right camera must be P3"
+        msg = (
+            f"{path}: the projections give a baseline of {baseline} m; the second must be "
+            "the right camera's"
+        )
         raise LogError(msg)
     rig = StereoRig(
         width=width,
@@ -120,31 +165,69 @@ def read_disparity_png(path: Path) -> np.ndarray:
     return np.where(raw > 0, raw.astype(np.float32) / np.float32(256.0), np.float32(np.nan))
 
 
-def _pair(folder: Path, name: str, rig: StereoRig, truth: Path | None) -> Iterator[DatasetFrame]:
-    left = read_png(folder / "image_2" / f"{name}{_REFERENCE}.png")
-    right = read_png(folder / "image_3" / f"{name}{_REFERENCE}.png")
-    disparity = None if truth is None else read_disparity_png(truth)
-    yield DatasetFrame(0, left, right, disparity)
+def _frame_name(name: str, k: int) -> str:
+    return f"{name}_{k:02d}.png"
 
 
-def stereo_sources(folder: Path) -> list[Source]:
-    """One source per NNNNNN_10 pair of a stereo benchmark folder (``training/``)."""
-    images = _require(folder / "image_2", STEREO_LAYOUT)
-    _require(folder / "image_3", STEREO_LAYOUT)
-    truth_dir = next((folder / t for t in TRUTH_FOLDERS if (folder / t).is_dir()), None)
+def _stereo_frames(
+    folder: Path, folders: StereoFolders, name: str, indices: tuple[int, ...],
+    truth: Path | None, period_ns: int,
+) -> Iterator[DatasetFrame]:  # fmt: skip
+    """The frames ``indices`` of scene ``name``, frame k stamped k × ``period_ns``, frame 10
+    with the ground truth."""
+    for k in indices:
+        left = read_png(folder / folders.left / _frame_name(name, k))
+        right = read_png(folder / folders.right / _frame_name(name, k))
+        disparity = None
+        if truth is not None and k == REFERENCE_FRAME:
+            disparity = read_disparity_png(truth)
+        yield DatasetFrame(k * period_ns, left, right, disparity)
+
+
+def _stereo_calibration(
+    folder: Path, folders: StereoFolders, name: str
+) -> tuple[Path, tuple[tuple[str, str], ...]]:
+    for sub, left, right in folders.calib:
+        path = folder / sub / f"{name}.txt"
+        if path.is_file():
+            return path, ((left, right),)
+    sub = folders.calib[-1][0]
+    return _require(folder / sub / f"{name}.txt", STEREO_LAYOUT), ()
+
+
+def stereo_sources(folder: Path, *, multiview: bool = False) -> list[Source]:
+    """One source per scene NNNNNN of a stereo benchmark folder (``training/``): its pair
+    NNNNNN_10 (the one with ground truth) at log time 0, or with ``multiview`` its frames
+    NNNNNN_00 … NNNNNN_20 that the folder holds, a 10 Hz sequence."""
+    folders = next((f for f in STEREO_FOLDERS if (folder / f.left).is_dir()), None)
+    if folders is None:
+        msg = f"{folder}: no image_2, image_0 or colored_0 folder ({STEREO_LAYOUT})"
+        raise LogError(msg)
+    images = folder / folders.left
+    _require(folder / folders.right, STEREO_LAYOUT)
+    truth_dir = None
+    if folders.truth:
+        truth_dir = next((folder / t for t in TRUTH_FOLDERS if (folder / t).is_dir()), None)
     out = []
-    for left in sorted(images.glob(f"*{_REFERENCE}.png")):
-        name = left.name.removesuffix(f"{_REFERENCE}.png")
-        _require(folder / "image_3" / left.name, STEREO_LAYOUT)
-        calib = folder / "calib_cam_to_cam" / f"{name}.txt"
-        if not calib.is_file():
-            calib = _require(folder / "calib" / f"{name}.txt", STEREO_LAYOUT)
-        height, width = read_png(left).shape[:2]
-        rig, _ = calibration_rig(calib, width, height)
-        truth = None if truth_dir is None else truth_dir / left.name
+    for reference in sorted(images.glob(f"*_{REFERENCE_FRAME}.png")):
+        name = reference.name.removesuffix(f"_{REFERENCE_FRAME}.png")
+        indices: tuple[int, ...] = (REFERENCE_FRAME,)
+        if multiview:
+            ks = range(MULTIVIEW_FRAMES)
+            indices = tuple(k for k in ks if (images / _frame_name(name, k)).is_file())
+        for k in indices:
+            _require(folder / folders.right / _frame_name(name, k), STEREO_LAYOUT)
+        calib, keys = _stereo_calibration(folder, folders, name)
+        height, width = read_png(reference).shape[:2]
+        rig, _ = calibration_rig(calib, width, height, keys)
+        if multiview:
+            rig = dataclasses.replace(rig, frame_rate=MULTIVIEW_RATE_HZ)
+        truth = None if truth_dir is None else truth_dir / reference.name
         if truth is not None and not truth.is_file():
             truth = None
-        out.append(Source(name, left.parent.parent, rig, partial(_pair, folder, name, rig, truth)))
+        period_ns = round(1e9 / MULTIVIEW_RATE_HZ) if multiview else 0  # one frame: at 0
+        frames = partial(_stereo_frames, folder, folders, name, indices, truth, period_ns)
+        out.append(Source(name, folder, rig, frames))
     if not out:
         msg = f"{images}: no NNNNNN_10.png pair ({STEREO_LAYOUT})"
         raise LogError(msg)
@@ -202,21 +285,40 @@ def sequence_source(folder: Path) -> Source:
     return Source(folder.name, folder, rig, partial(_sequence, folder, rig, mid_x, poses))
 
 
-def sources(path: Path) -> list[Source]:
-    """The sources of a KITTI folder: a stereo benchmark (its root, or ``training/``), an
-    odometry dataset (its root holding ``sequences/``) or one sequence folder."""
+def _sequence_only(folder: Path, multiview: bool) -> Source:
+    if multiview:
+        msg = (
+            f"{folder}: an odometry sequence, a sequence log already; the multiview import "
+            "is for the stereo benchmarks' frames NNNNNN_00 … NNNNNN_20"
+        )
+        raise LogError(msg)
+    return sequence_source(folder)
+
+
+def _is_stereo(folder: Path) -> bool:
+    return any((folder / f.left).is_dir() for f in STEREO_FOLDERS)
+
+
+def sources(path: Path, *, multiview: bool = False) -> list[Source]:
+    """The sources of a KITTI folder: a stereo benchmark (its root, or ``training/``; with
+    ``multiview`` each scene's frames 00 … 20), an odometry dataset (its root holding
+    ``sequences/``) or one sequence folder."""
     path = Path(path)
     if not path.is_dir():
         msg = f"{path}: no such folder ({STEREO_LAYOUT}; or {ODOMETRY_LAYOUT})"
         raise LogError(msg)
-    if (path / "training" / "image_2").is_dir():
-        return stereo_sources(path / "training")
+    if _is_stereo(path / "training"):
+        return stereo_sources(path / "training", multiview=multiview)
     if (path / "image_2").is_dir() and (path / "times.txt").is_file():
-        return [sequence_source(path)]
-    if (path / "image_2").is_dir():
-        return stereo_sources(path)
+        return [_sequence_only(path, multiview)]
+    if _is_stereo(path):
+        return stereo_sources(path, multiview=multiview)
     if (path / "sequences").is_dir():
-        found = [sequence_source(p) for p in sorted((path / "sequences").iterdir()) if p.is_dir()]
+        found = [
+            _sequence_only(p, multiview)
+            for p in sorted((path / "sequences").iterdir())
+            if p.is_dir()
+        ]
         if found:
             return found
     msg = f"{path}: image_2 missing: not a KITTI folder ({STEREO_LAYOUT}; or {ODOMETRY_LAYOUT})"

@@ -42,17 +42,23 @@ def import_dataset(
     *,
     scene: str | None = None,
     limit: int | None = None,
+    multiview: bool = False,
     on_progress: Callable[[float, float], None] | None = None,
 ) -> list[ImportedLog]:
     """Import the dataset at ``path`` in ``layout``. One source: ``output`` is the log (a
     folder there: ``output/NAME.mcap``); several: ``output`` is a folder (made if absent)
     holding ``NAME.mcap`` for each. ``scene`` keeps the source of that name, ``limit`` the
-    first frames of each. ``on_progress(done, total)`` counts sources (logs) written."""
+    first frames of each; ``multiview`` imports the KITTI stereo benchmarks' multiview
+    frames (00 … 20) of each scene as a sequence log. ``on_progress(done, total)`` counts
+    sources (logs) written."""
     if layout not in LAYOUTS:
         msg = f"unknown dataset format '{layout}': one of {', '.join(sorted(LAYOUTS))}"
         raise LogError(msg)
     path, output = Path(path), Path(output)
-    found = LAYOUTS[layout](path)
+    if multiview and layout != "kitti":
+        msg = f"{path}: multiview frames are KITTI's stereo benchmarks'; {layout} has none"
+        raise LogError(msg)
+    found = kitti.sources(path, multiview=True) if multiview else LAYOUTS[layout](path)
     if scene is not None:
         names = [s.name for s in found]
         found = [s for s in found if s.name == scene]

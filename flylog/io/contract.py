@@ -26,6 +26,8 @@ TRUTH_SCENE = "/truth/scene"
 # An imported dataset's ground truth: the left image's disparity (px, uL − uR, the rig's
 # convention: f·B/Z − doffs), 32FC1, NaN where the dataset gives none.
 TRUTH_DISPARITY = "/truth/disparity"
+# ... or its depth along the left optical axis (m), 32FC1, NaN where unknown.
+TRUTH_DEPTH = "/truth/depth"
 FLIES = "/flies"
 FLIES_OVERLAY = "/flies/overlay"
 PLANNER_POTENTIAL = "/planner/potential"
@@ -99,6 +101,7 @@ TOPIC_SCHEMAS: MappingProxyType[str, str] = MappingProxyType(
         TRUTH_POSE: POSE_IN_FRAME,
         TRUTH_SCENE: SCENE_UPDATE,
         TRUTH_DISPARITY: RAW_IMAGE,
+        TRUTH_DEPTH: RAW_IMAGE,
         FLIES: POINT_CLOUD,
         FLIES_OVERLAY: IMAGE_ANNOTATIONS,
         PLANNER_POTENTIAL: GRID,

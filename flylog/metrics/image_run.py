@@ -1,10 +1,12 @@
 """``flylog metrics`` on an imported dataset's log: a run scored against the log's
-ground-truth disparity images (``/truth/disparity``) instead of a rendered scene.
+ground-truth disparity (``/truth/disparity``) or depth (``/truth/depth``) images instead of
+a rendered scene.
 
 Definitions: :mod:`flylog.metrics.image_truth`. The points scored are the run's obstacle
 flies (its ``[obstacles]`` rule; a log without robot geometry has no ground plane, so the
 rule's ground test is off) or, for ``stereo = "sgbm"`` runs, its points through the same
-rule. Each snapshot is scored against the newest ground-truth image at or before it, and
+rule. Each snapshot is scored against the newest ground-truth image at or before it, while
+no newer stereo frame has come (snapshots of frames without ground truth are not scored), and
 the summary pools, for each ground-truth image, the last snapshot scored against it: the
 population once the engine has worked on that frame. An SGBM run is also scored densely:
 the run's SGBM matcher on each ground-truth frame's pair, at every ground-truth pixel.
@@ -38,26 +40,32 @@ from flylog.metrics.image_truth import (
 )
 from flylog.metrics.truth import SCENE_ATTACHMENT
 
+IMAGE_TRUTH = (contract.TRUTH_DISPARITY, contract.TRUTH_DEPTH)
+
 
 def has_image_truth(log: str | Path) -> bool:
-    """The log carries ground-truth disparity images and no scene to render. An imported
-    dataset's log without them (a KITTI odometry or EuRoC sequence) cannot be scored. A
-    ROS 2 bag carries no such images."""
+    """The log carries ground-truth disparity or depth images and no scene to render. An
+    imported dataset's log without them (a KITTI odometry or EuRoC sequence: true poses
+    only) cannot be scored: :class:`LogError` saying what it holds. A ROS 2 bag carries no
+    such images."""
     from flylog.ros2 import is_bag
 
     if is_bag(Path(log)):
         return False
     reader = open_log(log)
     topics = reader.topics()
-    if contract.TRUTH_DISPARITY not in topics and contract.DATASET_METADATA in reader.metadata():
+    images = any(t in topics for t in IMAGE_TRUTH)
+    if not images and contract.DATASET_METADATA in reader.metadata():
+        held = ", ".join(f"{t} ({topics[t].count})" for t in sorted(topics))
         msg = (
-            f"{log} is an imported dataset's log without {contract.TRUTH_DISPARITY}: flylog "
-            "metrics scores imported logs against ground-truth disparity images only"
+            f"{log} is an imported dataset's log without {contract.TRUTH_DISPARITY} or "
+            f"{contract.TRUTH_DEPTH}; it holds {held}. flylog metrics scores imported logs "
+            "against ground-truth disparity or depth images only (the run's trajectory "
+            f"is scored on simulated logs, whose {contract.ODOM} and scene an imported log "
+            "lacks)"
         )
         raise LogError(msg)
-    return contract.TRUTH_DISPARITY in topics and not any(
-        a.name == SCENE_ATTACHMENT for a in reader.attachments()
-    )
+    return images and not any(a.name == SCENE_ATTACHMENT for a in reader.attachments())
 
 
 def _median(values: np.ndarray) -> float:
@@ -90,7 +98,7 @@ def _sgbm_dense(
     """The dense map's columns: SGBM on each ground-truth frame, pooled over them."""
     from flylog.baseline.sgbm import disparity_px, grey_levels, stereo_matcher
 
-    matcher = stereo_matcher(config)
+    matcher = stereo_matcher(config, rig.doffs)
     wanted = {int(t): k for k, t in enumerate(stamps)}
     errors, known, matched = [], 0, 0
     for pair in open_log(log).stereo_pairs():
@@ -129,7 +137,7 @@ def score_image_run(run: str | Path, log: str | Path, config: MetricsConfig) -> 
     if not mounted or meta.get("ground_test") == "false":
         rule = dataclasses.replace(rule, ground_margin=-math.inf)
     rig = log_rig(sensor, mounted=mounted)
-    truth = read_disparity_truth(sensor)
+    truth = read_disparity_truth(sensor, rig)
     rows: list[dict[str, Any]] = []
     last: dict[int, ImageScore] = {}  # ground-truth image → its last snapshot's score
     t0 = int(truth.stamps_ns[0])
@@ -139,6 +147,8 @@ def score_image_run(run: str | Path, log: str | Path, config: MetricsConfig) -> 
             cloud = m.value
             keep = rule.mask(cloud.xyz, cloud.fitness, cloud.age, cloud.distinct)
             k = truth.at(m.log_time_ns)
+            if k is None:  # no ground truth of the frame this snapshot's flies work on
+                continue
             score = score_points(cloud.xyz[keep], truth.images[k], rig, config)
             last[k] = score
             row = _empty(tables.SNAPSHOT_COLUMNS)

@@ -1,5 +1,7 @@
 """Scores of points (flies, SGBM's points, SGBM's dense map) against an imported dataset's
-ground-truth disparity image (``/truth/disparity``: px of the left image, NaN unknown).
+ground-truth disparity image (``/truth/disparity``: px of the left image, NaN unknown; or
+``/truth/depth``: m along the left optical axis, NaN unknown, turned into disparity
+f·B/Z − doffs with the log's rig).
 
 Definitions (``MetricsConfig`` holds τ and the cells):
 
@@ -69,35 +71,64 @@ class ImageScore(NamedTuple):
 
 @dataclass(frozen=True)
 class DisparityTruth:
-    """The ground-truth disparity images of a log, in time order."""
+    """The ground-truth disparity images of a log, in time order, each valid from its stamp
+    until the next stereo frame after it (when the images change under the population)."""
 
     path: Path
     stamps_ns: np.ndarray  # (K,) int64
     images: list[np.ndarray]  # K × (H, W) float32
+    until_ns: np.ndarray  # (K,) int64: the next left image's stamp after each (or int64 max)
 
-    def at(self, t_ns: int) -> int:
-        """Index of the newest image stamped at or before ``t_ns`` (the first if none)."""
-        return max(0, int(np.searchsorted(self.stamps_ns, t_ns, side="right")) - 1)
+    def at(self, t_ns: int) -> int | None:
+        """Index of the image valid at ``t_ns``: the newest stamped at or before it, while
+        no newer frame has come; None outside every image's span."""
+        k = int(np.searchsorted(self.stamps_ns, t_ns, side="right")) - 1
+        return k if k >= 0 and t_ns < self.until_ns[k] else None
 
 
-def read_disparity_truth(reader: LogReader) -> DisparityTruth:
-    """Every ``/truth/disparity`` image of the log (32FC1, little endian)."""
+def _float_images(reader: LogReader, topic: str) -> tuple[list[int], list[np.ndarray]]:
     stamps, images = [], []
-    for raw in reader.raw_messages([contract.TRUTH_DISPARITY]):
+    for raw in reader.raw_messages([topic]):
         fields = raw_image_fields(raw.message.data)
         if fields.encoding != "32FC1" or fields.step != fields.width * 4:
             msg = (
-                f"{reader.path}: {contract.TRUTH_DISPARITY} at {raw.message.log_time} ns is "
-                f"{fields.encoding} with step {fields.step}; flylog reads 32FC1, rows packed"
+                f"{reader.path}: {topic} at {raw.message.log_time} ns is {fields.encoding} "
+                f"with step {fields.step}; flylog reads 32FC1, rows packed"
             )
             raise LogError(msg)
         values = np.frombuffer(fields.data, dtype="<f4", count=fields.width * fields.height)
         images.append(values.reshape(fields.height, fields.width).astype(np.float32))
         stamps.append(raw.message.log_time)
+    return stamps, images
+
+
+def disparity_of_depth(depth: np.ndarray, rig: StereoRig) -> np.ndarray:
+    """(H, W) float32 disparity f·B/Z − doffs of a depth image (m; NaN, inf, Z ≤ 0: unknown)."""
+    z = np.asarray(depth, dtype=np.float64)
+    known = np.isfinite(z) & (z > 0)
+    safe = np.where(known, z, 1.0)
+    return np.where(known, rig.fb / safe - rig.doffs, np.nan).astype(np.float32)
+
+
+def read_disparity_truth(reader: LogReader, rig: StereoRig | None = None) -> DisparityTruth:
+    """Every ``/truth/disparity`` image of the log (32FC1, little endian); without them,
+    every ``/truth/depth`` image as disparity through ``rig`` (the log's)."""
+    stamps, images = _float_images(reader, contract.TRUTH_DISPARITY)
+    if not images and rig is not None:
+        stamps, depths = _float_images(reader, contract.TRUTH_DEPTH)
+        images = [disparity_of_depth(z, rig) for z in depths]
     if not images:
-        msg = f"{reader.path}: no {contract.TRUTH_DISPARITY} messages"
+        msg = f"{reader.path}: no {contract.TRUTH_DISPARITY} or {contract.TRUTH_DEPTH} messages"
         raise LogError(msg)
-    return DisparityTruth(reader.path, np.array(stamps, dtype=np.int64), images)
+    frames = np.array(
+        [raw.message.log_time for raw in reader.raw_messages([contract.LEFT_IMAGE])],
+        dtype=np.int64,
+    )
+    frames.sort()
+    after = np.searchsorted(frames, np.array(stamps, dtype=np.int64), side="right")
+    last = np.iinfo(np.int64).max
+    until = np.array([frames[i] if i < len(frames) else last for i in after], dtype=np.int64)
+    return DisparityTruth(reader.path, np.array(stamps, dtype=np.int64), images, until)
 
 
 def truth_at(disparity: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -187,7 +218,7 @@ def score_points(
 def score_dense(
     dense: np.ndarray, truth: np.ndarray, rig: StereoRig, config: MetricsConfig
 ) -> ImageScore:
-    """Score a dense disparity map (px; negative or NaN: none) at every pixel it matched."""
-    v, u = np.nonzero(np.isfinite(dense) & (dense >= 0))
+    """Score a dense disparity map (px; NaN: none) at every pixel it matched."""
+    v, u = np.nonzero(np.isfinite(dense))
     d = dense[v, u].astype(np.float64)
     return score_pixels(u, v, d, rig.depth_of_disparity(d), truth, rig, config)

@@ -11,7 +11,10 @@ from flylog.baseline import SgbmConfig
 from flylog.baseline.sgbm import (
     MATCHED_AGE,
     SgbmEngine,
+    disparity_px,
     sampled_pixels,
+    search_start_px,
+    stereo_matcher,
     texture_confidence,
 )
 from flylog.config import from_mapping
@@ -199,3 +202,30 @@ def test_config_errors_name_file_and_field(table, needle):
 
 def test_cost_is_the_configured_seconds_per_frame():
     assert SgbmConfig(seconds_per_frame=0.04).cost_ns == 40_000_000
+
+
+@pytest.mark.parametrize("doffs", [-20.0, -20.5, 4.5])
+def test_the_search_covers_the_pixel_disparities_of_a_rig_with_doffs(doffs):
+    # d = f·B/Z − doffs: with doffs = −20 every point's disparity is above 20 px, beyond a
+    # search of 16 disparities from 0; a plane at f·B/Z = 10 px is at d = 10 − doffs px
+    config = dataclasses.replace(CONFIG, num_disparities=16)
+    rig = dataclasses.replace(RIG, doffs=doffs)
+    d = round(10 - doffs)  # the images shift by whole pixels
+    engine, _ = stepped(shifted_pair(rig, d), rig=rig, config=config)
+    pop = engine.population
+    assert len(pop) == 2000
+    depth = pop.xyz[:, 0] - rig.mount_x
+    true = rig.fb / (d + doffs)
+    assert np.mean(np.abs(depth - true) <= 0.01 * true) > 0.98
+    u, ur, _, _ = rig.project(pop.xyz)
+    assert np.median(u - ur) == pytest.approx(d, abs=0.05)
+    start = search_start_px(doffs)
+    assert start == (20 if doffs < 0 else 0)
+    pair = shifted_pair(rig, d)
+    dense = disparity_px(stereo_matcher(config, doffs), pair.left, pair.right)
+    assert np.nanmin(dense) >= start and np.isnan(dense[:, : start + 16 - 1]).all()
+
+
+def test_a_disparity_at_infinity_counts_against_the_image_width():
+    with pytest.raises(FlylogError, match=r"less the rig's disparity at infinity \(300 px\)"):
+        SgbmEngine(CONFIG, dataclasses.replace(RIG, doffs=-300.0), points=10)

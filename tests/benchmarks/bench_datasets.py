@@ -40,6 +40,7 @@ from flylog.replay.run import replay
 from flylog.sensors import StereoPair
 from tests.datasets.layouts import (
     write_euroc,
+    write_kitti_multiview,
     write_kitti_sequence,
     write_kitti_stereo,
 )
@@ -177,6 +178,8 @@ def _import_speed(out_dir: Path) -> list[dict]:
     rig = log_rig(open_log(out_dir / "bench_datasets_motorcycle.mcap"), mounted=False)
     rig = dataclasses.replace(rig, doffs=0.0)  # KITTI and the rectified EuRoC pair: doffs 0
     write_kitti_stereo(root / "kitti", rig, [(left, right, disparity)] * IMPORT_PAIRS)
+    views = [(6 + k, left, right) for k in range(IMPORT_PAIRS)]  # frames 06 … 13
+    write_kitti_multiview(root / "multiview", rig, [views], [disparity])
     stamps = [round(k * 1e9 / 10) for k in range(IMPORT_PAIRS)]
     frames = [(t, left, right) for t in stamps]
     write_kitti_sequence(
@@ -190,18 +193,20 @@ def _import_speed(out_dir: Path) -> list[dict]:
     for name, layout, path in (
         ("middlebury", "middlebury", mid),
         ("kitti stereo", "kitti", root / "kitti"),
+        ("kitti multiview", "kitti", root / "multiview"),
         ("kitti odometry", "kitti", root / "odometry"),
         ("euroc", "euroc", root / "euroc"),
     ):
         out = root / f"{name.replace(' ', '_')}_out"
+        multiview = name.endswith("multiview")
 
-        def once(layout=layout, path=path, out=out) -> None:
+        def once(layout=layout, path=path, out=out, multiview=multiview) -> None:
             if out.is_dir():
                 shutil.rmtree(out)
             out.unlink(missing_ok=True)
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                import_dataset(layout, path, out)
+                import_dataset(layout, path, out, multiview=multiview)
 
         best = min(_times(once, 3))
         pairs_s = IMPORT_PAIRS / best

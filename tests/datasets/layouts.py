@@ -72,21 +72,48 @@ def kitti_disparity_png(disparity: np.ndarray) -> np.ndarray:
     return out
 
 
+def _grey(image: np.ndarray) -> np.ndarray:
+    return image if image.ndim == 2 else np.rint(image.mean(axis=2)).astype(np.uint8)
+
+
 def write_kitti_stereo(root: Path, rig, pairs, *, calib: str = "2015") -> None:
-    """training/image_2, image_3, calib_cam_to_cam (2015) or calib (2012), disp_occ_0."""
+    """training/ in a stereo benchmark's layout, one scene NNNNNN per pair (its frame 10):
+    "2015": image_2, image_3, calib_cam_to_cam (P_rect_02/03), disp_occ_0; "2015-calib":
+    the same with calib (P2/P3); "2012": the grey image_0, image_1 and the colour
+    colored_0, colored_1 (calib's P0/P1 and P2/P3: here the same cameras), disp_occ."""
+    write_kitti_multiview(root, rig, [[(10, left, right)] for left, right, _ in pairs],
+                          [d for *_, d in pairs], calib=calib)  # fmt: skip
+
+
+def write_kitti_multiview(root: Path, rig, scenes, truths, *, calib: str = "2015") -> None:
+    """``scenes``: per scene, its frames (k, left, right), written NNNNNN_kk.png; ``truths``:
+    per scene, frame 10's disparity (NaN unknown) or None."""
     training = root / "training"
+    grey = calib == "2012"
+    sides = ("image_0", "image_1", "colored_0", "colored_1") if grey else ("image_2", "image_3")
     folder = "calib_cam_to_cam" if calib == "2015" else "calib"
-    keys = ("P_rect_02", "P_rect_03") if calib == "2015" else ("P2", "P3")
-    for sub in ("image_2", "image_3", folder, "disp_occ_0"):
+    truth_dir = "disp_occ" if grey else "disp_occ_0"
+    for sub in (*sides, folder, truth_dir):
         (training / sub).mkdir(parents=True, exist_ok=True)
     p2, p3 = kitti_projections(rig)
-    for k, (left, right, disparity) in enumerate(pairs):
-        name = f"{k:06d}"
-        write_png(training / "image_2" / f"{name}_10.png", left)
-        write_png(training / "image_3" / f"{name}_10.png", right)
-        text = "calib_time: 09-Jan-2012 13:57:47\n" + _kitti_line(keys[0], p2)
-        (training / folder / f"{name}.txt").write_text(text + _kitti_line(keys[1], p3))
-        write_png(training / "disp_occ_0" / f"{name}_10.png", kitti_disparity_png(disparity))
+    keys = {"2015": ("P_rect_02", "P_rect_03"), "2015-calib": ("P2", "P3")}.get(calib)
+    lines = [_kitti_line(k, p2 if k in ("P0", "P2") else p3) for k in ("P0", "P1", "P2", "P3")]
+    if keys is not None:
+        lines = [_kitti_line(keys[0], p2), _kitti_line(keys[1], p3)]
+    for n, (frames, disparity) in enumerate(zip(scenes, truths, strict=True)):
+        name = f"{n:06d}"
+        for k, left, right in frames:
+            file = f"{name}_{k:02d}.png"
+            if grey:
+                write_png(training / "image_0" / file, _grey(left))
+                write_png(training / "image_1" / file, _grey(right))
+            for side, image in zip(sides[-2:], (left, right), strict=True):
+                write_png(training / side / file, image)
+        text = "calib_time: 09-Jan-2012 13:57:47\n" + "".join(lines)
+        (training / folder / f"{name}.txt").write_text(text)
+        if disparity is not None:
+            png = kitti_disparity_png(disparity)
+            write_png(training / truth_dir / f"{name}_10.png", png)
 
 
 def kitti_pose(pose) -> np.ndarray:

@@ -58,7 +58,7 @@ def test_points_outside_the_image_or_behind_are_not_scored():
 def test_a_dense_map_is_scored_where_it_matched_and_truth_is_known():
     truth = _truth()
     dense = np.where(np.isnan(truth), 5.0, truth + 1.5).astype(np.float32)
-    dense[40:, :] = -1.0  # OpenCV's "no disparity"
+    dense[40:, :] = np.nan  # no disparity found
     score = score_dense(dense, truth, RIG, MetricsConfig())
     assert score.scored == 40 * 64 - 256
     assert np.all(score.disparity_errors == pytest.approx(1.5))

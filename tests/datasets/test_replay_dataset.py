@@ -85,5 +85,5 @@ def test_metrics_refuse_an_imported_log_without_ground_truth_images(tmp_path):
     (log,) = import_dataset("middlebury", tmp_path / "plane", tmp_path / "plane.mcap")
     with pytest.warns(DatasetLogWarning):
         replay(log.path, tmp_path / "run.mcap", dataclasses.replace(SMALL, generations_per_frame=2))
-    with pytest.raises(LogError, match="without /truth/disparity: flylog metrics scores"):
+    with pytest.raises(LogError, match="without /truth/disparity or /truth/depth; it holds"):
         score_run(tmp_path / "run.mcap", log.path)

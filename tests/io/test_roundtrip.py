@@ -47,9 +47,10 @@ def test_images_round_trip_exactly(read_back):
 
 def test_ground_truth_disparity_round_trips_exactly_with_its_nans(read_back):
     sample, got = read_back
-    pairs = zip(
-        got[contract.TRUTH_DISPARITY], sample.written[contract.TRUTH_DISPARITY], strict=True
-    )
+    pairs = [
+        *zip(got[contract.TRUTH_DISPARITY], sample.written[contract.TRUTH_DISPARITY], strict=True),
+        *zip(got[contract.TRUTH_DEPTH], sample.written[contract.TRUTH_DEPTH], strict=True),
+    ]
     for m, (_, disparity) in pairs:
         assert m.value.dtype == np.float32 and m.schema == contract.RAW_IMAGE
         np.testing.assert_array_equal(m.value, disparity)  # NaNs where they were
