@@ -117,8 +117,9 @@ def test_ros2idl_schemas_are_refused_by_name(tmp_path):
         channel = writer.register_channel("/r", "cdr", schema)
         writer.add_message(channel, 0, b"\x00\x01\x00\x00", 0)
         writer.finish()
-    with pytest.raises(LogError, match=r"topic /r has a 'ros2idl' schema"):
+    with pytest.raises(LogError, match=r"topic /r has a 'ros2idl' schema") as refusal:
         list(open_bag(path).messages())
+    assert str(refusal.value).startswith(f"{path}: ")
 
 
 def test_a_truncated_bag_is_read_up_to_the_damage_with_a_warning(tmp_path):
