@@ -35,12 +35,8 @@ from flylog.fly.fusion import (
 )
 from flylog.fly.generation import generations_kernel
 from flylog.fly.neighbours import NeighbourCounter, neighbour_counts_numpy
-from flylog.fly.operators import newcomer_constants, newcomers_numpy
-from flylog.fly.population import (
-    Population,
-    random_flies,
-    sharing_radius,
-)
+from flylog.fly.operators import newcomer_constants, newcomers_numpy, random_flies
+from flylog.fly.population import Population, sharing_radius
 from flylog.fly.scouts import Scouting
 from flylog.fly.selection import shared_fitness, survivor_indices
 from flylog.fly.stats import GenerationStats

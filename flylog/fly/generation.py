@@ -25,13 +25,11 @@ the caches.
 from __future__ import annotations
 
 import numba
-import numpy as np
 
 from flylog.fly.fusion import score_into
 from flylog.fly.operators import immigrants_and_children_into
 from flylog.fly.population import select_into_kernel
 from flylog.fly.scouts import scouts_into
-from flylog.geometry import StereoRig
 from flylog.geometry.kernels import row_of
 
 
@@ -153,14 +151,3 @@ def rows_order_into(xyz, index, k, height, scratch):  # pragma: no cover - compi
         out[counts[r]] = index[t]
         counts[r] += 1
     return out[:m]
-
-
-def rows_order_numpy(xyz: np.ndarray, index: np.ndarray, rig: StereoRig) -> np.ndarray:
-    """Reference: the order :func:`rows_order_into` gives (same arithmetic: a fly behind or
-    in the cameras' plane lands off the image)."""
-    _, b, depth, _ = rig.optical(xyz[index])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        v = rig.cy + rig.focal_px * b / depth
-        on = (v >= 0.0) & (v < rig.height)
-        row = np.where(on, np.floor(np.where(on, v, 0.0)) + 1, 0).astype(np.int64)
-    return index[np.argsort(row, kind="stable")]
