@@ -48,6 +48,11 @@ class Population:
     def __len__(self) -> int:
         return len(self.xyz)
 
+    def arrays(self) -> tuple[np.ndarray, ...]:
+        """(xyz, fitness, vision, stale, stamp_ns, age): the fields of
+        :class:`~flylog.fly.bundles.Flies`, in its order."""
+        return self.xyz, self.fitness, self.vision, self.stale, self.stamp_ns, self.age
+
     def copy(self, *, readonly: bool = False) -> Population:
         """A deep copy (optionally with read-only arrays, for handing out snapshots)."""
         out = Population(
