@@ -23,7 +23,8 @@ if TYPE_CHECKING:
     from flylog.fly.engine import FlyEngine
     from flylog.fly.fitness import INVALID_FITNESS, fitness_numba, fitness_numpy
     from flylog.fly.obstacles import ObstacleFlies, obstacle_mask, obstacle_points
-    from flylog.fly.population import Population, random_flies, sharing_radius
+    from flylog.fly.operators import random_flies
+    from flylog.fly.population import Population, sharing_radius
     from flylog.fly.stats import GenerationStats
 
 # public name → the submodule defining it
@@ -41,7 +42,7 @@ _WHERE = {
     "obstacle_mask": "obstacles",
     "obstacle_points": "obstacles",
     "Population": "population",
-    "random_flies": "population",
+    "random_flies": "operators",
     "sharing_radius": "population",
 }
 

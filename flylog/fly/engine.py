@@ -13,6 +13,8 @@ import math
 import numpy as np
 
 from flylog.errors import FlylogError
+from flylog.fly.bundles import Breeding, Flies, Fusion, Images, Scratch, Selection
+from flylog.fly.bundles import Scouting as ScoutBundle
 from flylog.fly.config import Backend, EngineConfig
 from flylog.fly.fitness import (
     INVALID_FITNESS,
@@ -35,12 +37,8 @@ from flylog.fly.fusion import (
 )
 from flylog.fly.generation import generations_kernel
 from flylog.fly.neighbours import NeighbourCounter, neighbour_counts_numpy
-from flylog.fly.operators import newcomer_constants, newcomers_numpy
-from flylog.fly.population import (
-    Population,
-    random_flies,
-    sharing_radius,
-)
+from flylog.fly.operators import newcomer_constants, newcomers_numpy, random_flies
+from flylog.fly.population import Population, sharing_radius
 from flylog.fly.scouts import Scouting
 from flylog.fly.selection import shared_fitness, survivor_indices
 from flylog.fly.stats import GenerationStats
@@ -49,6 +47,7 @@ from flylog.sensors import SonarReading, StereoPair
 
 # Sonar immigrants: candidates are drawn n at a time, at most this many times.
 _SONAR_TRIES = 8
+
 
 # Marks the fused fitness as computed before the flies last moved (so: for every fly again).
 _MOVED = object()
@@ -108,7 +107,8 @@ class FlyEngine:
         )
         self._guard = float(config.guard)
         self._stale_index = np.empty(config.flies, dtype=np.int64)
-        self._row_scratch = np.empty((3, max(config.flies, rig.height + 2)), dtype=np.int64)
+        row_scratch = np.empty((3, max(config.flies, rig.height + 2)), dtype=np.int64)
+        self._scratch = Scratch(self._stale_index, self._all, self._newcomers, row_scratch)
 
     # --- inputs -----------------------------------------------------------------------------
 
@@ -272,17 +272,20 @@ class FlyEngine:
         n_immigrants = self._n_immigrants
         n_sonar = 0 if self._sonar is None else self._sonar_share
         made = np.empty((count, 4), dtype=np.int64)
+        images = Images(left, right, channels, self._rig_constants, cfg.window, self._guard,
+                        self._measure, self._stamp_ns)  # fmt: skip
+        fusion = Fusion(sonars, float(self._cos_half_cone), float(cfg.sonar_tolerance),
+                        float(cfg.sonar_bonus))  # fmt: skip
+        breeding = Breeding(*self._breed, self._newcomer_k, self._arcs, self._half_cone,
+                            self._arc_k, _SONAR_TRIES, n_sonar, n_immigrants)  # fmt: skip
+        fraction, c0, c1, in_right, depths, scout_k, *scratch = self._scouts.kernel_args(
+            n_immigrants
+        )
+        scouting = ScoutBundle(float(fraction), float(c0), float(c1), bool(in_right),
+                               int(depths), scout_k, *scratch)  # fmt: skip
         generations_kernel(
-            count, made, self._rng, left, right, channels, self._rig_constants, cfg.window,
-            self._guard, self._measure, self._stamp_ns,
-            pop.xyz, pop.fitness, pop.vision, pop.stale, pop.stamp_ns, pop.age,
-            nxt.xyz, nxt.fitness, nxt.vision, nxt.stale, nxt.stamp_ns, nxt.age,
-            self._stale_index, self._all, fuse_all, sonars, self._cos_half_cone,
-            cfg.sonar_tolerance, cfg.sonar_bonus, self._survivors, self._sharing,
-            cfg.sharing_coefficient, self._work, self._radius, *self._counter.scratch(cfg.flies),
-            self._counter.counts, *self._breed, self._newcomer_k, self._arcs, self._half_cone,
-            self._arc_k, _SONAR_TRIES, n_sonar, n_immigrants,
-            *self._scouts.kernel_args(n_immigrants), self._newcomers, self._row_scratch,
+            count, made, self._rng, images, Flies(*pop.arrays()), Flies(*nxt.arrays()),
+            fuse_all, fusion, self._selection(), breeding, scouting, self._scratch,
         )  # fmt: skip
         if count % 2:
             self._pop, self._spare = nxt, pop
@@ -301,6 +304,12 @@ class FlyEngine:
             )
             for g, (e, kept, children, found) in enumerate(made.tolist())
         ]
+
+    def _selection(self) -> Selection:
+        cfg = self.config
+        grid, ints, uv = self._counter.scratch(cfg.flies)
+        return Selection(self._survivors, self._sharing, float(cfg.sharing_coefficient), self._work,
+                         self._radius, grid, ints, uv, self._counter.counts)  # fmt: skip
 
     def _fuse(self, index: np.ndarray, sonars: np.ndarray) -> None:
         """The fused fitness of the flies ``index`` from their vision fitness."""

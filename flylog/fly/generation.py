@@ -25,78 +25,66 @@ the caches.
 from __future__ import annotations
 
 import numba
-import numpy as np
 
 from flylog.fly.fusion import score_into
 from flylog.fly.operators import immigrants_and_children_into
 from flylog.fly.population import select_into_kernel
 from flylog.fly.scouts import scouts_into
-from flylog.geometry import StereoRig
 from flylog.geometry.kernels import row_of
 
 
 @numba.njit(cache=True, nogil=True)
-def generation_kernel(rng, lrows, rrows, channels, k, window, guard, measure, stamp,
-                      xyz, fitness, vision, stale, stamp_ns, age,
-                      oxyz, ofit, ovis, ostale, ostamp, oage,
-                      stale_index, everyone, fuse_all, sonars, cos_half_cone, tolerance, bonus,
-                      survivors, sharing, coefficient, work, radius, grid, ints, uv, counts,
-                      rate2, rate3, sigma_px, sigma_d, newcomer_k, arcs, half_cone, arc_k, tries,
-                      n_sonar, n_immigrants, scout_fraction, c0, c1, in_right, n_depths,
-                      scout_k, candidates, candidate_index, candidate_fitness,
-                      newcomers, row_scratch):  # fmt: skip  # pragma: no cover - compiled
-    """A generation from ``xyz``… (scored, then selected from) into ``oxyz``…; ``everyone``
-    is 0…N−1, ``stale_index`` (N,) int64 scratch, ``newcomers`` the rows after the
-    survivors. ``scout_fraction`` 0: nobody scouts. Returns (evaluations, survivors,
-    children, sonar immigrants)."""
-    n = xyz.shape[0]
+def generation_kernel(rng, im, a, b, fuse_all, fu, se, br, sc, scratch):  # pragma: no cover
+    """A generation from the flies ``a`` (scored, then selected from) into ``b``, with the
+    bundles of :mod:`flylog.fly.bundles` (``im`` :class:`Images`, ``fu`` :class:`Fusion`,
+    ``se`` :class:`Selection`, ``br`` :class:`Breeding`, ``sc`` :class:`Scouting`,
+    ``scratch`` :class:`Scratch`). ``sc.fraction`` 0: nobody scouts. Returns (evaluations,
+    survivors, children, sonar immigrants)."""
+    n = a.xyz.shape[0]
+    height = im.lrows.shape[0]
     m = 0
     for i in range(n):
-        stale_index[m] = i
-        m += stale[i]
-    index = rows_order_into(xyz, stale_index[:m], k, lrows.shape[0], row_scratch)
-    fuse = everyone if fuse_all else index
-    score_into(lrows, rrows, channels, xyz, index, k, window, guard, stamp, vision, stale,
-               stamp_ns, sonars, cos_half_cone, tolerance, bonus, fuse, fitness,
-               measure)  # fmt: skip
+        scratch.stale_index[m] = i
+        m += a.stale[i]
+    index = rows_order_into(a.xyz, scratch.stale_index[:m], im.k, height, scratch.row_scratch)
+    fuse = scratch.everyone if fuse_all else index
+    score_into(im.lrows, im.rrows, im.channels, a.xyz, index, im.k, im.window, im.guard,
+               im.stamp, a.vision, a.stale, a.stamp_ns, fu.sonars, fu.cos_half_cone,
+               fu.tolerance, fu.bonus, fuse, a.fitness, im.measure)  # fmt: skip
     evaluations = m
-    kept = select_into_kernel(fitness, coefficient, sharing, survivors, work, k, radius, grid,
-                              ints, uv, counts, xyz, vision, stale, stamp_ns, age, oxyz, ofit,
-                              ovis, ostale, ostamp, oage)  # fmt: skip
-    n_children = n - kept - n_immigrants
+    kept = select_into_kernel(a.fitness, se.coefficient, se.sharing, se.survivors, se.work,
+                              im.k, se.radius, se.grid, se.ints, se.uv, se.counts, a.xyz,
+                              a.vision, a.stale, a.stamp_ns, a.age, b.xyz, b.fitness, b.vision,
+                              b.stale, b.stamp_ns, b.age)  # fmt: skip
+    n_children = n - kept - br.n_immigrants
     at = kept + n_children
     found = immigrants_and_children_into(
-        rng, oxyz[:kept], rate2, rate3, sigma_px, sigma_d, newcomer_k, arcs, half_cone,
-        tolerance, arc_k, tries, n_sonar, oxyz[kept:at], oxyz[at:],
+        rng, b.xyz[:kept], br.rate2, br.rate3, br.sigma_px, br.sigma_d, br.newcomer_k,
+        br.arcs, br.half_cone, fu.tolerance, br.arc_k, br.tries, br.n_sonar,
+        b.xyz[kept:at], b.xyz[at:],
     )  # fmt: skip
-    n_scouts = round(scout_fraction * (n_immigrants - found)) if scout_fraction > 0 else 0
+    n_scouts = round(sc.fraction * (br.n_immigrants - found)) if sc.fraction > 0 else 0
     if n_scouts > 0:
-        r = n_scouts * n_depths
-        scouts_into(rng, scout_k, c0, c1, in_right, n_depths, lrows, rrows, channels, k, window,
-                    guard, measure, candidates[:r], candidate_index[:r],
-                    candidate_fitness[:r], oxyz[n - n_scouts :])  # fmt: skip
+        r = n_scouts * sc.n_depths
+        scouts_into(rng, sc.k, sc.c0, sc.c1, sc.in_right, sc.n_depths, im.lrows, im.rrows,
+                    im.channels, im.k, im.window, im.guard, im.measure, sc.candidates[:r],
+                    sc.candidate_index[:r], sc.candidate_fitness[:r],
+                    b.xyz[n - n_scouts :])  # fmt: skip
         evaluations += r
-    order = rows_order_into(oxyz, newcomers, k, lrows.shape[0], row_scratch)
-    score_into(lrows, rrows, channels, oxyz, order, k, window, guard, stamp, ovis, ostale,
-               ostamp, sonars, cos_half_cone, tolerance, bonus, order, ofit,
-               measure)  # fmt: skip
-    evaluations += newcomers.shape[0]
+    order = rows_order_into(b.xyz, scratch.newcomers, im.k, height, scratch.row_scratch)
+    score_into(im.lrows, im.rrows, im.channels, b.xyz, order, im.k, im.window, im.guard,
+               im.stamp, b.vision, b.stale, b.stamp_ns, fu.sonars, fu.cos_half_cone,
+               fu.tolerance, fu.bonus, order, b.fitness, im.measure)  # fmt: skip
+    evaluations += scratch.newcomers.shape[0]
     return evaluations, kept, n_children, found
 
 
 @numba.njit(cache=True, nogil=True)
-def generations_kernel(count, made, rng, lrows, rrows, channels, k, window, guard, measure,
-                       stamp, xyz, fitness, vision, stale, stamp_ns, age,
-                       oxyz, ofit, ovis, ostale, ostamp, oage,
-                       stale_index, everyone, fuse_all, sonars, cos_half_cone, tolerance, bonus,
-                       survivors, sharing, coefficient, work, radius, grid, ints, uv, counts,
-                       rate2, rate3, sigma_px, sigma_d, newcomer_k, arcs, half_cone, arc_k,
-                       tries, n_sonar, n_immigrants, scout_fraction, c0, c1, in_right,
-                       n_depths, scout_k, candidates, candidate_index, candidate_fitness,
-                       newcomers, row_scratch):  # fmt: skip  # pragma: no cover - compiled
+def generations_kernel(count, made, rng, im, a, b, fuse_all, fu, se, br, sc,
+                       scratch):  # fmt: skip  # pragma: no cover - compiled
     """``count`` generations of :func:`generation_kernel` on the same inputs, one call: the
-    first from ``xyz``… into ``oxyz``…, the next back, and so on (after an odd ``count`` the
-    newest population is in ``oxyz``…). ``fuse_all`` applies to the first only (the next
+    first from the flies ``a`` into ``b``, the next back, and so on (after an odd ``count``
+    the newest population is in ``b``). ``fuse_all`` applies to the first only (the next
     ones see the reading the first fused with). Row g of ``made`` (count, 4) receives
     generation g's (evaluations, survivors, children, sonar immigrants).
 
@@ -104,23 +92,11 @@ def generations_kernel(count, made, rng, lrows, rrows, channels, k, window, guar
     them; called one by one, each return waited for the GIL that the planner's worker and
     the reading thread hold for their Python (~0.5 s of the 60 s reference replay's ~4.5 s
     on a quiet 2-core machine), and each call cost its dispatch and Python glue."""
-    # ping-pong: generation g reads one set of population arrays and writes the other
-    src = (xyz, fitness, vision, stale, stamp_ns, age)
-    dst = (oxyz, ofit, ovis, ostale, ostamp, oage)
+    src, dst = a, b  # ping-pong: generation g reads one population and writes the other
     for g in range(count):
-        fuse = fuse_all and g == 0
-        ax, af, av, ast, ats, aag = src
-        bx, bf, bv, bst, bts, bag = dst
         e, kept, children, found = generation_kernel(
-            rng, lrows, rrows, channels, k, window, guard, measure, stamp,
-            ax, af, av, ast, ats, aag, bx, bf, bv, bst, bts, bag,
-            stale_index, everyone, fuse, sonars, cos_half_cone, tolerance, bonus,
-            survivors, sharing, coefficient, work, radius, grid, ints, uv, counts,
-            rate2, rate3, sigma_px, sigma_d, newcomer_k, arcs, half_cone, arc_k, tries,
-            n_sonar, n_immigrants, scout_fraction, c0, c1, in_right, n_depths,
-            scout_k, candidates, candidate_index, candidate_fitness,
-            newcomers, row_scratch,
-        )  # fmt: skip
+            rng, im, src, dst, fuse_all and g == 0, fu, se, br, sc, scratch
+        )
         src, dst = dst, src
         made[g, 0] = e
         made[g, 1] = kept
@@ -153,14 +129,3 @@ def rows_order_into(xyz, index, k, height, scratch):  # pragma: no cover - compi
         out[counts[r]] = index[t]
         counts[r] += 1
     return out[:m]
-
-
-def rows_order_numpy(xyz: np.ndarray, index: np.ndarray, rig: StereoRig) -> np.ndarray:
-    """Reference: the order :func:`rows_order_into` gives (same arithmetic: a fly behind or
-    in the cameras' plane lands off the image)."""
-    _, b, depth, _ = rig.optical(xyz[index])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        v = rig.cy + rig.focal_px * b / depth
-        on = (v >= 0.0) & (v < rig.height)
-        row = np.where(on, np.floor(np.where(on, v, 0.0)) + 1, 0).astype(np.int64)
-    return index[np.argsort(row, kind="stable")]

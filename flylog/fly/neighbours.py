@@ -176,10 +176,3 @@ class NeighbourCounter:
         counts = np.empty(len(u), dtype=np.int64)
         neighbour_counts_into(u, v, valid, float(radius), *self.scratch(len(u)), counts)
         return counts
-
-
-def neighbour_counts_numba(
-    u: np.ndarray, v: np.ndarray, valid: np.ndarray, radius: float
-) -> np.ndarray:
-    """Same counts as :func:`neighbour_counts_numpy` (compiled grid, fresh buffers)."""
-    return NeighbourCounter()(u, v, valid, radius)

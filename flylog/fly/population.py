@@ -1,4 +1,6 @@
-"""The fly population as a structure of arrays, and uniform sampling of new flies."""
+"""The fly population as a structure of arrays, its compiled selection into the next
+generation's arrays, and the sharing radius (uniform sampling of new flies:
+:func:`flylog.fly.operators.random_flies`)."""
 
 from __future__ import annotations
 
@@ -11,7 +13,6 @@ import numpy as np
 from flylog.fly.fitness import INVALID_FITNESS
 from flylog.fly.neighbours import NeighbourCounter, fly_neighbour_counts_into
 from flylog.fly.selection import shared_fitness_into, survivors_cut
-from flylog.geometry import StereoRig
 
 
 @dataclass
@@ -46,6 +47,11 @@ class Population:
 
     def __len__(self) -> int:
         return len(self.xyz)
+
+    def arrays(self) -> tuple[np.ndarray, ...]:
+        """(xyz, fitness, vision, stale, stamp_ns, age): the fields of
+        :class:`~flylog.fly.bundles.Flies`, in its order."""
+        return self.xyz, self.fitness, self.vision, self.stale, self.stamp_ns, self.age
 
     def copy(self, *, readonly: bool = False) -> Population:
         """A deep copy (optionally with read-only arrays, for handing out snapshots)."""
@@ -218,14 +224,3 @@ def fitness_summary(fitness: np.ndarray) -> tuple[float, int, float]:
 def sharing_radius(n_pixels: int, n_flies: int) -> float:
     """R = ½(√(N_pixels / N_flies) − 1) px (paper §2.1.2), never negative."""
     return max(0.0, 0.5 * (math.sqrt(n_pixels / n_flies) - 1.0))
-
-
-def random_flies(
-    rng: np.random.Generator, rig: StereoRig, n: int, *, d_min: float, d_max: float, margin: int
-) -> np.ndarray:
-    """(n, 3) flies whose left projections are uniform in the image (``margin`` px inside
-    its border) and whose inverse depth 1/z is uniform in [1/d_max, 1/d_min] (paper §2.1.2)."""
-    u = rng.uniform(margin, rig.width - 1 - margin, n)
-    v = rng.uniform(margin, rig.height - 1 - margin, n)
-    inv_depth = rng.uniform(1.0 / d_max, 1.0 / d_min, n)
-    return rig.backproject(u, v, 1.0 / inv_depth)

@@ -38,26 +38,6 @@ def survivors_cut(score, keep, work):  # pragma: no cover - compiled
     return cut, keep - above
 
 
-@numba.njit(cache=True, nogil=True)
-def survivor_indices_numba(shared_fitness, keep):  # pragma: no cover - compiled
-    """Same indices as :func:`survivor_indices`."""
-    n = shared_fitness.shape[0]
-    if keep >= n:
-        return np.arange(n)
-    if keep <= 0:
-        return np.empty(0, dtype=np.int64)
-    cut, ties = survivors_cut(shared_fitness, keep, np.empty(n))
-    out = np.empty(keep, dtype=np.int64)
-    t = 0
-    for i in range(n):
-        s = shared_fitness[i]
-        if s > cut or (s == cut and ties > 0):
-            ties -= s == cut
-            out[t] = i
-            t += 1
-    return out
-
-
 def shared_fitness(fitness: np.ndarray, counts: np.ndarray, coefficient: float) -> np.ndarray:
     """2-D sharing: fitness − K·n·f̃, with f̃ the median of the positive fitnesses, so that K
     is dimensionless whatever the images' contrast. Non-positive fitnesses are left alone."""
@@ -82,11 +62,3 @@ def shared_fitness_into(fitness, counts, coefficient, work, out):  # pragma: no 
     step = coefficient * median_radix(work[:m], out[:m].view(np.uint64))
     for i in range(fitness.shape[0]):
         out[i] = fitness[i] - step * counts[i] if fitness[i] > 0 else fitness[i]
-
-
-@numba.njit(cache=True, nogil=True)
-def shared_fitness_numba(fitness, counts, coefficient):  # pragma: no cover - compiled
-    """Same values as :func:`shared_fitness`."""
-    out = np.empty_like(fitness)
-    shared_fitness_into(fitness, counts, coefficient, np.empty_like(fitness), out)
-    return out

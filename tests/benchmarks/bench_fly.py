@@ -339,6 +339,145 @@ def _generation_figures(pair, depth, reading, rig) -> list[dict]:
     ]
 
 
+def _captured_bundles(engine: FlyEngine) -> tuple:
+    """The arguments of the engine's next :func:`~flylog.fly.generation.generations_kernel`
+    call (one generation is run to get them)."""
+    import flylog.fly.engine as engine_module
+
+    real, captured = engine_module.generations_kernel, []
+
+    def spy(*args):
+        captured.append(args)
+        return real(*args)
+
+    engine_module.generations_kernel = spy
+    try:
+        engine.steps(1)
+    finally:
+        engine_module.generations_kernel = real
+    return captured[0]
+
+
+def _stage_figures(pair, reading, rig) -> list[dict]:
+    """The stages of one generation (5000 flies, sonar on, a new pair every 10 generations),
+    each compiled stage called alone from Python on the engine's own bundles, in the
+    kernel's order: the median over 400 generations of each call's thread CPU time (the
+    dispatch of a call, ~2 µs, included; the Generator's typing, measured by a no-op
+    kernel, is charged to breeding)."""
+    import numba
+
+    from flylog.fly.fusion import score_into
+    from flylog.fly.generation import rows_order_into
+    from flylog.fly.neighbours import fly_neighbour_counts_into
+    from flylog.fly.operators import immigrants_and_children_into
+    from flylog.fly.population import _cut_and_gather
+    from flylog.fly.selection import shared_fitness_into
+
+    engine = FlyEngine(EngineConfig(flies=5000), rig, np.random.default_rng(0))
+    engine.set_images(pair)
+    engine.set_sonar(reading)
+    engine.steps(20)
+    _, _, rng, im, a, b, _, fu, se, br, _, sc = _captured_bundles(engine)
+    noop = numba.njit(lambda rng, x: 0)
+    noop(rng, a.xyz)
+    times: dict[str, list[float]] = {}
+
+    def timed(name, fn, *args):
+        t0 = time.thread_time()
+        out = fn(*args)
+        times.setdefault(name, []).append(time.thread_time() - t0)
+        return out
+
+    n, height = len(a.xyz), im.lrows.shape[0]
+    for g in range(440):
+        if g % 10 == 0:
+            a.stale[:] = True
+        m = int(a.stale.sum())
+        sc.stale_index[:m] = np.flatnonzero(a.stale)
+        what = "all 5000 stale flies (new pair)" if m == n else "stale flies (none)"
+        index = timed("row order, stale", rows_order_into, a.xyz, sc.stale_index[:m], im.k,
+                      height, sc.row_scratch)  # fmt: skip
+        timed(f"fitness, {what}", score_into, im.lrows, im.rrows, im.channels, a.xyz, index,
+              im.k, im.window, im.guard, im.stamp, a.vision, a.stale, a.stamp_ns, fu.sonars,
+              fu.cos_half_cone, fu.tolerance, fu.bonus, index, a.fitness, im.measure)  # fmt: skip
+        timed("neighbour counts (grid)", fly_neighbour_counts_into, a.xyz, im.k, a.fitness,
+              se.radius, se.grid, se.ints, se.uv, se.counts)  # fmt: skip
+        score = se.work[:n]
+        timed("sharing (median)", shared_fitness_into, a.fitness, se.counts, se.coefficient,
+              se.work[n:], score)  # fmt: skip
+        kept = timed("selection cut and gather", _cut_and_gather, score, se.survivors, se.work,
+                     a.fitness, *a[:1], a.vision, a.stale, a.stamp_ns, a.age, *b)  # fmt: skip
+        at = n - br.n_immigrants
+        timed("breeding: children and immigrants", immigrants_and_children_into, rng,
+              b.xyz[:kept], br.rate2, br.rate3, br.sigma_px, br.sigma_d, br.newcomer_k, br.arcs,
+              br.half_cone, fu.tolerance, br.arc_k, br.tries, br.n_sonar, b.xyz[kept:at],
+              b.xyz[at:])  # fmt: skip
+        timed("Generator typing (no-op kernel)", noop, rng, b.xyz)
+        order = timed("row order, newcomers", rows_order_into, b.xyz, sc.newcomers, im.k,
+                      height, sc.row_scratch)  # fmt: skip
+        timed("fitness, 2500 newcomers", score_into, im.lrows, im.rrows, im.channels, b.xyz,
+              order, im.k, im.window, im.guard, im.stamp, b.vision, b.stale, b.stamp_ns,
+              fu.sonars, fu.cos_half_cone, fu.tolerance, fu.bonus, order, b.fitness,
+              im.measure)  # fmt: skip
+        a, b = b, a
+    typing = float(np.median(times.pop("Generator typing (no-op kernel)")[40:]))
+    figures = []
+    for name, values in times.items():
+        per = np.median(values[4:] if "new pair" in name else values[40:])
+        if name.startswith("breeding"):
+            per -= typing
+        figures.append({"name": f"stage: {name}", "value": per * 1e6, "unit": "µs/call"})
+    return figures
+
+
+def _bundle_figures(pair, reading, rig) -> list[dict]:
+    """The cost of passing the generation's inputs as bundles: a call of
+    :func:`~flylog.fly.generation.generations_kernel` that runs no generation (its dispatch:
+    typing the seven bundles and the Generator) against a no-op kernel given the same 61
+    values one by one, alternated in the same run; and both against a 10-generation call."""
+    import numba
+
+    engine = FlyEngine(EngineConfig(flies=5000), rig, np.random.default_rng(0))
+    engine.set_images(pair)
+    engine.set_sonar(reading)
+    engine.steps(20)
+    args = _captured_bundles(engine)
+    from flylog.fly.generation import generations_kernel
+
+    _, made, rng, *bundles = args
+    flat = [rng]
+    for bundle in bundles:
+        flat.extend(bundle if isinstance(bundle, tuple) else (bundle,))
+    names = ", ".join(f"a{i}" for i in range(len(flat)))
+    scope: dict = {}
+    exec(f"def noop({names}):\n    return 0", scope)  # one named parameter per value
+    noop = numba.njit(scope["noop"])
+    noop(*flat)
+    generations_kernel(0, made, rng, *bundles)
+    calls = 2000
+    bundled, positional = [], []
+    for _ in range(7):
+        t0 = time.thread_time()
+        for _ in range(calls):
+            generations_kernel(0, made, rng, *bundles)
+        bundled.append((time.thread_time() - t0) / calls)
+        t0 = time.thread_time()
+        for _ in range(calls):
+            noop(*flat)
+        positional.append((time.thread_time() - t0) / calls)
+    ten = 1.0 / _best_rate(lambda: engine.steps(10), 1, 20)
+    return [
+        {
+            "name": "generation kernel's dispatch, seven bundles",
+            "value": min(bundled) * 1e6,
+            "unit": "µs/call",
+            "reference": f"a no-op kernel of the same {len(flat)} values one by one",
+            "ratio": min(bundled) / min(positional),
+            "note": f"{min(bundled) / ten:.2%} of a 10-generation call ({ten * 1e3:.2f} ms)",
+        }
+    ]
+
+
 # The engine's kernels and operators, as cProfile names them (file, function).
 _PROFILED = [
     # one compiled call a step (or a run of steps): scoring, selection, newcomers, scouts
@@ -535,6 +674,8 @@ def run(out_dir: Path) -> list[dict]:
         + _rig_kernel_figures(pair, rig)
         + _generation_figures(pair, depth, reading, rig)
         + _profile_figures(pair, reading, rig)
+        + _stage_figures(pair, reading, rig)
+        + _bundle_figures(pair, reading, rig)
         + _log_rhythm_figures(out_dir)
         + _compile_figures()
     )

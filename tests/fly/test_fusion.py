@@ -220,7 +220,7 @@ def test_move_in_place_equals_moved_bit_for_bit():
 def test_score_kernel_equals_fitness_then_fusion(with_sonar):
     from flylog.fly.fitness import INVALID_FITNESS, fitness_numpy, rig_constants
     from flylog.fly.fusion import score_into
-    from flylog.fly.population import random_flies
+    from flylog.fly.operators import random_flies
 
     rng = np.random.default_rng(4)
     rig = StereoRig(width=64, height=48, focal_px=50.0)

@@ -8,9 +8,10 @@ import pytest
 import flylog.fly.engine as engine_module
 from flylog.fly import Backend, EngineConfig, FlyEngine
 from flylog.fly.fitness import rig_constants
-from flylog.fly.generation import rows_order_into, rows_order_numpy
+from flylog.fly.generation import rows_order_into
 from flylog.geometry import Pose2D, StereoRig
 from tests.fly.analytic import default_sonar_reading, render, room
+from tests.fly.reference_generation import rows_order_numpy
 
 SMALL = StereoRig(width=320, height=240, focal_px=250.0)
 

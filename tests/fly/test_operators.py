@@ -5,29 +5,17 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flylog.fly.neighbours import (
-    NeighbourCounter,
-    grid_buffer_size,
+from flylog.fly.neighbours import NeighbourCounter, grid_buffer_size, neighbour_counts_numpy
+from flylog.fly.operators import newcomer_constants, newcomers_into, newcomers_numpy, random_flies
+from flylog.fly.population import sharing_radius
+from flylog.fly.selection import shared_fitness, survivor_indices
+from flylog.geometry import StereoRig
+from tests.fly.reference_operators import crossover2, crossover3, mutated, offspring
+from tests.fly.reference_selection import (
     neighbour_counts_numba,
-    neighbour_counts_numpy,
-)
-from flylog.fly.operators import (
-    crossover2,
-    crossover3,
-    mutated,
-    newcomer_constants,
-    newcomers_into,
-    newcomers_numpy,
-    offspring,
-)
-from flylog.fly.population import random_flies, sharing_radius
-from flylog.fly.selection import (
-    shared_fitness,
     shared_fitness_numba,
-    survivor_indices,
     survivor_indices_numba,
 )
-from flylog.geometry import StereoRig
 
 RIG = StereoRig()
 

