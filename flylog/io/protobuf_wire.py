@@ -1,11 +1,12 @@
-"""The protobuf wire format (proto3), written with numpy for messages of hundreds of points
-or poses, byte for byte as the Foxglove SDK writes them (tests/io/test_encode_bytes.py checks
-it): scalar fields equal to zero are left out, sub-messages are length-delimited."""
+"""The protobuf wire format (proto3), written by compiled loops for messages of hundreds of
+points or poses, byte for byte as the Foxglove SDK writes them (tests/io/test_encode_bytes.py
+checks it): scalar fields equal to zero are left out, sub-messages are length-delimited."""
 
 from __future__ import annotations
 
 import struct
 
+import numba
 import numpy as np
 
 
@@ -31,50 +32,81 @@ def bytes_field(number: int, payload: bytes) -> bytes:
     return _varint(number << 3 | 2) + _varint(len(payload)) + payload
 
 
-def _doubles_messages(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """For each row of ``rows`` (N, k ≤ 14), a message whose fields 1..k are its doubles:
-    the (N, 9k) bytes with every field, which bytes to keep (fields equal to zero, -0.0 too,
-    are left out, as the SDK does; NaN is written), and each message's length."""
-    n, k = rows.shape
-    record = np.empty((n, k, 9), dtype=np.uint8)
-    record[:, :, 0] = np.arange(1, k + 1) << 3 | 1
-    record[:, :, 1:] = np.ascontiguousarray(rows, dtype="<f8").view(np.uint8).reshape(n, k, 8)
-    present = rows != 0.0
-    return record.reshape(n, 9 * k), np.repeat(present, 9, axis=1), 9 * present.sum(axis=1)
+def _as_bytes(rows: np.ndarray) -> np.ndarray:
+    """(N, k) doubles → their (N, 8k) little-endian bytes."""
+    rows = np.ascontiguousarray(rows, dtype="<f8")
+    return rows.view(np.uint8).reshape(len(rows), 8 * rows.shape[1])
 
 
-def _kept(parts: list[tuple[np.ndarray, np.ndarray | None]]) -> bytes:
-    """The rows of the parts side by side, row after row, without the bytes not kept
-    (``None``: all kept)."""
-    record = np.hstack([p for p, _ in parts])
-    keep = np.hstack([np.ones(p.shape, bool) if k is None else k for p, k in parts])
-    return record[keep].tobytes()
+@numba.njit(cache=True, nogil=True)
+def _write_doubles(out, at, values, raw):  # pragma: no cover - compiled
+    """One message whose fields 1..k are ``values``' doubles (raw: their bytes) at
+    ``out[at:]``, zeros (-0.0 too) left out; returns the position after it."""
+    for f in range(len(values)):
+        if values[f] != 0.0:
+            out[at] = (f + 1) << 3 | 1
+            out[at + 1 : at + 9] = raw[8 * f : 8 * f + 8]
+            at += 9
+    return at
 
 
-def _heads(*columns: int | np.ndarray, n: int) -> np.ndarray:
-    """(n, len(columns)) bytes: tags and one-byte lengths (every length here is < 128)."""
-    out = np.empty((n, len(columns)), dtype=np.uint8)
-    for i, column in enumerate(columns):
-        out[:, i] = column
-    return out
+@numba.njit(cache=True, nogil=True)
+def _present_bytes(values):  # pragma: no cover - compiled
+    n = 0
+    for v in values:
+        if v != 0.0:
+            n += 9
+    return n
+
+
+@numba.njit(cache=True, nogil=True)
+def _repeated_doubles_kernel(tag, rows, raw, out):  # pragma: no cover - compiled
+    at = 0
+    for r in range(rows.shape[0]):
+        out[at] = tag
+        out[at + 1] = _present_bytes(rows[r])
+        at = _write_doubles(out, at + 2, rows[r], raw[r])
+    return at
+
+
+@numba.njit(cache=True, nogil=True)
+def _repeated_poses_kernel(tag, p, p_raw, q, q_raw, out):  # pragma: no cover - compiled
+    at = 0
+    for r in range(p.shape[0]):
+        p_len, q_len = _present_bytes(p[r]), _present_bytes(q[r])
+        out[at] = tag
+        out[at + 1] = 4 + p_len + q_len
+        out[at + 2] = 1 << 3 | 2
+        out[at + 3] = p_len
+        at = _write_doubles(out, at + 4, p[r], p_raw[r])
+        out[at] = 2 << 3 | 2
+        out[at + 1] = q_len
+        at = _write_doubles(out, at + 2, q[r], q_raw[r])
+    return at
 
 
 def repeated_doubles(number: int, rows: np.ndarray) -> bytes:
-    """Field ``number`` repeated: one message per row, its fields 1..k the row's doubles."""
-    body, keep, length = _doubles_messages(rows)
-    return _kept([(_heads(number << 3 | 2, length, n=len(rows)), None), (body, keep)])
+    """Field ``number`` repeated: one message per row (k ≤ 14 columns, so every length is
+    one byte), its fields 1..k the row's doubles; zeros (-0.0 too) are left out, as the SDK
+    does, NaN is written. Written by a compiled loop that releases the GIL: the planner's
+    worker encodes the overlay while the engine runs."""
+    rows = np.ascontiguousarray(rows, dtype=np.float64)
+    n, k = rows.shape
+    if k > 14:
+        msg = f"repeated_doubles writes at most 14 doubles a message, got {k}"
+        raise ValueError(msg)
+    out = np.empty(n * (2 + 9 * k), dtype=np.uint8)
+    end = _repeated_doubles_kernel(number << 3 | 2, rows, _as_bytes(rows), out)
+    return out[:end].tobytes()
 
 
 def repeated_poses(number: int, position: np.ndarray, orientation: np.ndarray) -> bytes:
     """Field ``number`` repeated: one Pose per row, position (N, 3) and orientation (N, 4)."""
-    p_body, p_keep, p_len = _doubles_messages(position)
-    q_body, q_keep, q_len = _doubles_messages(orientation)
-    n = len(position)
-    return _kept(
-        [
-            (_heads(number << 3 | 2, 4 + p_len + q_len, 1 << 3 | 2, p_len, n=n), None),
-            (p_body, p_keep),
-            (_heads(2 << 3 | 2, q_len, n=n), None),
-            (q_body, q_keep),
-        ]
-    )
+    p = np.ascontiguousarray(position, dtype=np.float64)
+    q = np.ascontiguousarray(orientation, dtype=np.float64)
+    if p.shape[1:] != (3,) or q.shape != (len(p), 4):
+        msg = f"repeated_poses needs (N, 3) and (N, 4), got {p.shape} and {q.shape}"
+        raise ValueError(msg)
+    out = np.empty(len(p) * (6 + 9 * 7), dtype=np.uint8)
+    end = _repeated_poses_kernel(number << 3 | 2, p, _as_bytes(p), q, _as_bytes(q), out)
+    return out[:end].tobytes()

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 
@@ -91,9 +92,36 @@ def bilinear(field: np.ndarray, geometry: GridGeometry, x: float, y: float) -> f
 
 def gradient_field(u: np.ndarray, cell_size: float) -> tuple[np.ndarray, np.ndarray]:
     """(dU/dx, dU/dy) at every cell centre: central differences inside, one-sided at the
-    edges (exact for a linear U)."""
-    gy, gx = np.gradient(u, cell_size)
+    edges (exact for a linear U); ``np.gradient(u, cell_size)``'s arithmetic, value for
+    value, in a compiled loop that releases the GIL (the planner's worker computes it at
+    each tick while the engine runs)."""
+    if u.dtype != np.float64 or u.ndim != 2 or min(u.shape) < 2:
+        msg = f"gradient_field needs a float64 grid of at least 2 x 2 cells, got {u.dtype}{u.shape}"
+        raise ValueError(msg)
+    gx, gy = np.empty(u.shape), np.empty(u.shape)
+    _gradient_kernel(u, float(cell_size), gx, gy)
     return gx, gy
+
+
+@numba.njit(cache=True, nogil=True)
+def _gradient_kernel(u, dx, gx, gy):  # pragma: no cover - compiled
+    """np.gradient's first-order edges and central interior, along both axes, into gx, gy."""
+    h, w = u.shape
+    twice = 2.0 * dx
+    for i in range(h):
+        for j in range(w):
+            if i == 0:
+                gy[i, j] = (u[1, j] - u[0, j]) / dx
+            elif i == h - 1:
+                gy[i, j] = (u[h - 1, j] - u[h - 2, j]) / dx
+            else:
+                gy[i, j] = (u[i + 1, j] - u[i - 1, j]) / twice
+            if j == 0:
+                gx[i, j] = (u[i, 1] - u[i, 0]) / dx
+            elif j == w - 1:
+                gx[i, j] = (u[i, w - 1] - u[i, w - 2]) / dx
+            else:
+                gx[i, j] = (u[i, j + 1] - u[i, j - 1]) / twice
 
 
 def _corner(geometry: GridGeometry, x: float, y: float) -> tuple[int, int, float, float]:

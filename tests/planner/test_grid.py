@@ -69,3 +69,20 @@ def test_path_starts_at_robot_and_reaches_goal_on_converged_field():
     assert path.points[-1] == pytest.approx((2.0, 1.0))
     steps = np.linalg.norm(np.diff(path.points[:-1], axis=0), axis=1)
     np.testing.assert_allclose(steps, cfg.path_step, rtol=1e-9)
+
+
+@pytest.mark.parametrize("shape", [(2, 2), (3, 7), (40, 40), (201, 200)])
+def test_gradient_field_is_numpys_gradient_value_for_value(shape):
+    u = np.random.default_rng(11).normal(size=shape) * 1e3
+    gy, gx = np.gradient(u, 0.05)
+    ours_x, ours_y = gradient_field(u, 0.05)
+    assert np.array_equal(ours_x, gx) and np.array_equal(ours_y, gy)
+    gy, gx = np.gradient(u[:, ::-1], 0.05)  # not contiguous
+    assert np.array_equal(gradient_field(u[:, ::-1], 0.05)[0], gx)
+
+
+def test_gradient_field_refuses_a_grid_too_small():
+    with pytest.raises(ValueError, match="at least 2 x 2"):
+        gradient_field(np.zeros((1, 5)), 0.1)
+    with pytest.raises(ValueError, match="float64"):
+        gradient_field(np.zeros((5, 5), np.float32), 0.1)
