@@ -39,13 +39,19 @@ TAIL_COLUMNS = (
         "s",
         "wall time of the cell: replay (or the closed loop) + metrics",
     ),
+    Column(
+        "cell_cpu_s",
+        "float64",
+        "s",
+        "CPU time of the worker process over the cell, all its threads",
+    ),
     Column("status", "string", "", "ok, or failed (the sweep went on)"),
     Column("error", "string", "", "why the cell failed (null if ok)"),
     Column("run_dir", "string", "", "the cell's outputs, relative to the sweep's directory"),
     Column("fingerprint", "string", "", "SHA-256 of input content, configuration and version"),
 )
 # Columns that measure the machine, not the algorithm: they differ between two runs of a cell.
-TIMING_COLUMNS = ("wall_s", "metrics_wall_s", "evaluations_per_s", "cell_wall_s")
+TIMING_COLUMNS = ("wall_s", "metrics_wall_s", "evaluations_per_s", "cell_wall_s", "cell_cpu_s")
 
 
 def _grid_type(values: Sequence[Any]) -> str:
@@ -98,6 +104,7 @@ def cell_row(cell: Cell, outcome: Mapping[str, Any], out_dir: Path) -> dict[str,
     row.update({c.name: outcome.get(c.name) for c in METRIC_COLUMNS})
     row.update(
         cell_wall_s=outcome.get("cell_wall_s"),
+        cell_cpu_s=outcome.get("cell_cpu_s"),
         status=outcome.get("status"),
         error=outcome.get("error"),
         run_dir=str(cell.directory.relative_to(out_dir)),

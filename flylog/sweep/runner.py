@@ -12,6 +12,7 @@ from typing import Any
 from flylog.errors import LogError
 from flylog.sweep.cells import Cell, SimulatedInput, simulated_inputs, sweep_cells
 from flylog.sweep.executors import Backend, Executor, default_workers, make_executor
+from flylog.sweep.order import longest_first
 from flylog.sweep.results import RESULTS_NAME, cell_row, write_results
 from flylog.sweep.spec import SweepSpec, load_spec
 from flylog.sweep.work import (
@@ -155,6 +156,7 @@ def run_sweep(
         failed = sum(r["status"] != STATUS_OK for r in rows.values())
         run.report("cells", len(rows), failed, len(cells))
         if todo:
+            todo = longest_first(todo)
             outcomes = run.get().map_unordered(run_cell, todo, lost=_lost_cell)
             for i, outcome in outcomes:
                 cell = todo[i]

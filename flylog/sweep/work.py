@@ -106,8 +106,9 @@ def _metrics_row(cell: Cell, log: Path) -> dict[str, Any]:
 
 def run_cell(cell: Cell) -> dict[str, Any]:
     """Run ``cell`` into its directory; the metrics of its row, its status and error
-    message, and its wall time (``cell_wall_s``)."""
-    t0 = time.perf_counter()
+    message, its wall time (``cell_wall_s``) and its worker process's CPU time over it
+    (``cell_cpu_s``, every thread: engine, planner, reading)."""
+    t0, cpu0 = time.perf_counter(), time.process_time()
     try:
         cell.directory.mkdir(parents=True, exist_ok=True)
         if cell.simulation is not None:
@@ -124,8 +125,10 @@ def run_cell(cell: Cell) -> dict[str, Any]:
         summary = _metrics_row(cell, log)
     except Exception as exc:
         return {"status": STATUS_FAILED, "error": error_message(exc),
-                "cell_wall_s": time.perf_counter() - t0}  # fmt: skip
-    row = {**summary, "status": STATUS_OK, "error": None, "cell_wall_s": time.perf_counter() - t0}
+                "cell_wall_s": time.perf_counter() - t0,
+                "cell_cpu_s": time.process_time() - cpu0}  # fmt: skip
+    timing = {"cell_wall_s": time.perf_counter() - t0, "cell_cpu_s": time.process_time() - cpu0}
+    row = {**summary, "status": STATUS_OK, "error": None, **timing}
     write_json(cell.record, {"fingerprint": cell.fingerprint, "row": _jsonable(row)})
     return row
 
