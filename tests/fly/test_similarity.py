@@ -131,3 +131,37 @@ def test_subpixel_finds_a_half_pixel_shift_that_whole_pixels_miss():
     exact = fitness_numba(left, right, xyz, SMALL, 7, 1.0, subpixel=True)
     rounded = fitness_numba(left, right, xyz, SMALL, 7, 1.0)
     assert np.median(exact / rounded) > 2.0
+
+
+def _border_case(seed, channels, window, n=400):
+    # Flies whose windows touch the images' edges: the left projection within two pixels of
+    # the first or last valid column and row, 0-4 px of disparity (the right window too).
+    rng = np.random.default_rng(seed)
+    shape = (SMALL.height, SMALL.width) + ((channels,) if channels > 1 else ())
+    left = rng.integers(0, 256, shape, dtype=np.uint8)
+    right = rng.integers(0, 256, shape, dtype=np.uint8)
+    h = window // 2
+
+    def near_edges(size):
+        low = rng.uniform(h - 2, h + 6, n)
+        high = rng.uniform(size - 1 - h - 2, size - 1 - h + 2, n)
+        return np.where(rng.random(n) < 0.5, low, high)
+
+    u, v = near_edges(SMALL.width), near_edges(SMALL.height)
+    disparity = rng.uniform(0.0, 4.0, n)
+    return left, right, SMALL.backproject(u, v, SMALL.fb / (disparity + SMALL.doffs))
+
+
+# Every window the vector kernels take: window·channels ≤ 32 bytes a row, 16 or 32 lanes.
+VECTOR_WINDOWS = [(c, w) for c in (1, 3, 4) for w in range(3, 33, 2) if w * c <= 32]
+
+
+@pytest.mark.parametrize("similarity", list(Similarity))
+@pytest.mark.parametrize(("channels", "window"), VECTOR_WINDOWS)
+def test_subpixel_kernel_equals_numpy_reference_at_the_borders(similarity, channels, window):
+    left, right, xyz = _border_case(channels * 100 + window, channels, window)
+    want = fitness_numpy(left, right, xyz, SMALL, window, 1.0, similarity=similarity, subpixel=True)
+    assert (want > 0).sum() > 40
+    assert (want == INVALID_FITNESS).sum() > 40
+    got = fitness_numba(left, right, xyz, SMALL, window, 1.0, similarity=similarity, subpixel=True)
+    np.testing.assert_array_equal(got, want)
