@@ -23,7 +23,7 @@ from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-from flylog.fly.fitness_terms import FRACTION, FRACTION_BITS
+from flylog.fly.fitness_terms import FRACTION_BITS
 
 HALF = 16  # int16 lanes per 256-bit vector
 LANES = 2 * HALF
@@ -54,6 +54,21 @@ def pair_sums_generic(builder: ir.IRBuilder, a: ir.Value, b: ir.Value) -> ir.Val
         product = builder.mul(x, y)
         total = product if total is None else builder.add(total, product)
     return total
+
+
+def rounded_high_x86(builder: ir.IRBuilder, a: ir.Value, b: ir.Value) -> ir.Value:
+    """(a·b + 2¹⁴) >> 15 per int16 lane: one AVX2 vpmulhrsw."""
+    fnty = ir.FunctionType(_WORDS, [_WORDS, _WORDS])
+    fn = cgutils.get_or_insert_function(builder.module, fnty, "llvm.x86.avx2.pmul.hr.sw")
+    return builder.call(fn, [a, b])
+
+
+def rounded_high_generic(builder: ir.IRBuilder, a: ir.Value, b: ir.Value) -> ir.Value:
+    """The same for any target."""
+    wide = ir.VectorType(_I32, HALF)
+    product = builder.mul(builder.sext(a, wide), builder.sext(b, wide))
+    rounded = builder.add(product, ir.Constant(wide, [1 << 14] * HALF))
+    return builder.trunc(builder.ashr(rounded, ir.Constant(wide, [15] * HALF)), _WORDS)
 
 
 def _shuffle_add(builder: ir.IRBuilder, a: ir.Value, b: ir.Value, first, second) -> ir.Value:
@@ -104,10 +119,12 @@ class _Window:
     offsets and stride, and each window row's lanes as int16 vectors. With sub-pixel weights
     (q, across: the weight of the next column in 1/FRACTION, and its distance in bytes) the
     right row is interpolated as it is loaded, ((FRACTION − q)·a + q·b + FRACTION/2) >>
-    FRACTION_BITS per lane, in uint16 arithmetic (at most 256·255 + 128 < 2¹⁶)."""
+    FRACTION_BITS per lane, computed as a + (((b − a)·q·2⁷ + 2¹⁴) >> 15), one rounded high
+    product (vpmulhrsw): the same integer, since 2⁷·q ≤ 32640 fits int16."""
 
-    def __init__(self, context, builder, signature, args, subpixel: bool):
+    def __init__(self, context, builder, signature, args, subpixel: bool, pair_sums):
         self.builder = builder
+        self.rounded_high = rounded_high_x86 if pair_sums is pair_sums_x86 else rounded_high_generic
         t, a = signature.args, args
         self.lptr = context.make_array(t[0])(context, builder, a[0]).data
         self.rptr = context.make_array(t[1])(context, builder, a[1]).data
@@ -115,12 +132,11 @@ class _Window:
         self.mptr = builder.bitcast(
             context.make_array(t[6])(context, builder, a[6]).data, _WORDS.as_pointer()
         )
-        self.weights = None
+        self.weight = None
         if subpixel:
             q = builder.trunc(context.cast(builder, a[7], t[7], types.int64), _I16)
             self.across = context.cast(builder, a[8], t[8], types.int64)
-            w1 = self._splat(q)
-            self.weights = builder.sub(self._constant(FRACTION), w1), w1
+            self.weight = self._splat(builder.shl(q, ir.Constant(_I16, 15 - FRACTION_BITS)))
 
     def _constant(self, value: int) -> ir.Constant:
         return ir.Constant(_WORDS, [value] * HALF)
@@ -141,12 +157,11 @@ class _Window:
 
     def right_words(self, offset, half: int) -> ir.Value:
         a = self.words(self.rptr, offset, half)
-        if self.weights is None:
+        if self.weight is None:
             return a
-        b, (w0, w1) = self.builder, self.weights
+        b = self.builder
         nxt = self.words(self.rptr, b.add(offset, self.across), half)
-        total = b.add(b.add(b.mul(a, w0), b.mul(nxt, w1)), self._constant(FRACTION // 2))
-        return b.lshr(total, self._constant(FRACTION_BITS))
+        return b.add(a, self.rounded_high(b, b.sub(nxt, a), self.weight))
 
     def rows_loop(self, body) -> None:
         """body(left offset, right offset) for each window row."""
@@ -215,7 +230,7 @@ def window_terms_intrinsic(pair_sums, halves: int, subpixel: bool = False):
     ``subpixel``: the right rows interpolated (:class:`_Window`)."""
 
     def codegen(context, builder, signature, args):
-        w = _Window(context, builder, signature, args, subpixel)
+        w = _Window(context, builder, signature, args, subpixel, pair_sums)
         lane_mask = [w.mask(_MASK_LANES, h) for h in range(halves)]
         s_acc = [cgutils.alloca_once_value(builder, ir.Constant(_WORDS, None)) for _ in lane_mask]
         q_acc = [cgutils.alloca_once_value(builder, ir.Constant(_PAIRS, None)) for _ in lane_mask]
@@ -298,7 +313,7 @@ def ncc_terms_intrinsic(pair_sums, halves: int, subpixel: bool = False):
     needed by channel, the others over every lane."""
 
     def codegen(context, builder, signature, args):
-        w = _Window(context, builder, signature, args, subpixel)
+        w = _Window(context, builder, signature, args, subpixel, pair_sums)
 
         def zeros(vector_type):
             return [cgutils.alloca_once_value(builder, ir.Constant(vector_type, None))
