@@ -8,8 +8,11 @@ of the left image at the left projection (summed over channels under the norm). 
 ``G = sqrt((Σ_c gx_c²)^½)``, equal to the paper's G wherever gy = 0 (a vertical edge) and 0 on
 a horizontal edge, along which a horizontal disparity cannot be measured.
 
-Projections are rounded to the nearest pixel (``floor(u + 0.5)``), not interpolated. Only
-the w×w pixels around each projection are read: no whole-image pre-processing. A fly behind
+Projections are rounded to the nearest pixel (``floor(u + 0.5)``); with sub-pixel sampling
+the right window is interpolated at the exact right projection instead
+(:func:`flylog.fly.fitness_terms.subpixel_column`). Only the w×w pixels around each
+projection are read (and one pixel column more on the right when interpolated): no
+whole-image pre-processing. A fly behind
 the cameras or whose neighbourhood leaves either image scores :data:`INVALID_FITNESS`,
 below every valid fitness (which is ≥ 0).
 
@@ -50,9 +53,13 @@ from flylog.fly.fitness_vector import (
     lane_masks,
     ncc_terms_16,
     ncc_terms_32,
+    ncc_terms_sub_16,
+    ncc_terms_sub_32,
     prefetch,
     window_terms_16,
     window_terms_32,
+    window_terms_sub_16,
+    window_terms_sub_32,
 )
 from flylog.geometry import StereoRig
 from flylog.geometry.kernels import (
@@ -96,15 +103,16 @@ _AHEAD = 4
 
 
 @numba.njit(cache=True, nogil=True)
-def _prefetch_window(lflat, rflat, bl, br, stride, window, lanes):  # pragma: no cover
-    """Prefetch the bytes a vector window reads from bl (left) and br (right); bl < 0: none."""
+def _prefetch_window(lflat, rflat, bl, br, stride, window, lanes, extra):  # pragma: no cover
+    """Prefetch the bytes a vector window reads from bl (left) and br (right, ``extra`` bytes
+    more a row); bl < 0: none."""
     if bl < 0:
         return
     for _ in range(window):
         prefetch(lflat, bl)
         prefetch(lflat, bl + lanes - 1)
         prefetch(rflat, br)
-        prefetch(rflat, br + lanes - 1)
+        prefetch(rflat, br + lanes - 1 + extra)
         bl += stride
         br += stride
 
@@ -133,6 +141,7 @@ def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, gua
     lanes = HALF if ncols <= HALF else LANES
     vector = ncols <= LANES and channels <= MAX_CHANNELS
     reach = (window - 1) * stride + lanes  # bytes a vector window reads from its first
+    across = channels if subpixel else 0  # the interpolated right rows read this much more
     # Per fly of the block: first offsets of its left and right windows (−1: invalid fly),
     # then n·Σ_c ZSSD_c and the Sobel norm².
     first_l = np.empty(_BLOCK, dtype=np.int64)
@@ -190,24 +199,39 @@ def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, gua
             first_l[t] = bl
             first_r[t] = br
         for t in range(min(_AHEAD, m)):
-            _prefetch_window(lflat, rflat, first_l[t], first_r[t], stride, window, lanes)
+            _prefetch_window(lflat, rflat, first_l[t], first_r[t], stride, window, lanes, across)
         for t in range(m):
             if t + _AHEAD < m:
                 ahead = t + _AHEAD
                 _prefetch_window(
-                    lflat, rflat, first_l[ahead], first_r[ahead], stride, window, lanes
+                    lflat, rflat, first_l[ahead], first_r[ahead], stride, window, lanes, across
                 )
             bl = first_l[t]
             br = first_r[t]
             if bl < 0:
                 continue
             src_l, src_r, step = lflat, rflat, stride
-            fits = max(bl, br) + reach <= size
-            if subpixel:  # both windows copied, the right one interpolated, rows of bs bytes
-                windows_into(lflat, rflat, bl, br, stride, window, channels, frac[t], lbuf, rbuf,
-                             bs)  # fmt: skip
-                src_l, src_r, step, bl, br, fits = lbuf, rbuf, bs, 0, 0, True
-            if vector and ncc and fits:
+            fits = max(bl, br + across) + reach <= size
+            q = frac[t]
+            if vector and fits and subpixel:  # the right rows interpolated as they are loaded
+                if ncc and lanes == HALF:
+                    cov, vl, vr, grad2 = ncc_terms_sub_16(lflat, rflat, bl, br, stride, window,
+                                                          masks, q, across)  # fmt: skip
+                elif ncc:
+                    cov, vl, vr, grad2 = ncc_terms_sub_32(lflat, rflat, bl, br, stride, window,
+                                                          masks, q, across)  # fmt: skip
+                elif lanes == HALF:
+                    sq, squares, grad2 = window_terms_sub_16(lflat, rflat, bl, br, stride,
+                                                             window, masks, q, across)  # fmt: skip
+                else:
+                    sq, squares, grad2 = window_terms_sub_32(lflat, rflat, bl, br, stride,
+                                                             window, masks, q, across)  # fmt: skip
+                if ncc:
+                    totals[t], variances[0, t], variances[1, t], grads[t] = cov, vl, vr, grad2
+                else:
+                    totals[t] = n * sq - squares
+                    grads[t] = grad2
+            elif vector and ncc and fits:
                 if lanes == HALF:
                     cov, vl, vr, grad2 = ncc_terms_16(src_l, src_r, bl, br, step, window, masks)
                 else:
@@ -221,6 +245,10 @@ def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, gua
                 totals[t] = n * sq - squares
                 grads[t] = grad2
             else:
+                if subpixel:  # the lane loop: both windows copied, the right one interpolated
+                    windows_into(lflat, rflat, bl, br, stride, window, channels, q, lbuf, rbuf,
+                                 bs)  # fmt: skip
+                    src_l, src_r, step, bl, br = lbuf, rbuf, bs, 0, 0
                 if ncc:
                     totals[t], variances[0, t], variances[1, t] = ncc_lanes(
                         src_l, src_r, bl, br, step, window, channels, scratch

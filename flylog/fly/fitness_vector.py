@@ -5,9 +5,11 @@ to int16 lanes, one lane per (column, channel) byte; d = L − R is masked to th
 Σd is kept per lane in int16 (|Σd| ≤ 32·255) and Σd² in int32 lane pairs (vpmaddwd), in
 registers across rows. The sums by channel and the Sobel's gx, gy by channel are dot products of
 lane vectors with 0/±1/2 masks; their 16 pair-sum vectors are then reduced together by a
-transposing add tree. A window that needs more than 32 lanes (wider than 10 pixels in colour),
-more than MAX_CHANNELS channels, or whose reads would run past the end of the image takes the
-lane loop (_zssd_lanes, as before) and the scalar Sobel instead; both paths give the same
+transposing add tree. Sub-pixel sampling interpolates each right row as it is loaded, from
+two unaligned loads one pixel apart (:class:`_Window`), with no copy of the window. A window
+that needs more than 32 lanes (wider than 10 pixels in colour), more than MAX_CHANNELS
+channels, or whose reads would run past the end of the image takes the lane loop
+(:mod:`flylog.fly.fitness_terms`) and the scalar Sobel instead; both paths give the same
 integers.
 """
 
@@ -20,6 +22,8 @@ from llvmlite import ir
 from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
+
+from flylog.fly.fitness_terms import FRACTION_BITS
 
 HALF = 16  # int16 lanes per 256-bit vector
 LANES = 2 * HALF
@@ -50,6 +54,21 @@ def pair_sums_generic(builder: ir.IRBuilder, a: ir.Value, b: ir.Value) -> ir.Val
         product = builder.mul(x, y)
         total = product if total is None else builder.add(total, product)
     return total
+
+
+def rounded_high_x86(builder: ir.IRBuilder, a: ir.Value, b: ir.Value) -> ir.Value:
+    """(a·b + 2¹⁴) >> 15 per int16 lane: one AVX2 vpmulhrsw."""
+    fnty = ir.FunctionType(_WORDS, [_WORDS, _WORDS])
+    fn = cgutils.get_or_insert_function(builder.module, fnty, "llvm.x86.avx2.pmul.hr.sw")
+    return builder.call(fn, [a, b])
+
+
+def rounded_high_generic(builder: ir.IRBuilder, a: ir.Value, b: ir.Value) -> ir.Value:
+    """The same for any target."""
+    wide = ir.VectorType(_I32, HALF)
+    product = builder.mul(builder.sext(a, wide), builder.sext(b, wide))
+    rounded = builder.add(product, ir.Constant(wide, [1 << 14] * HALF))
+    return builder.trunc(builder.ashr(rounded, ir.Constant(wide, [15] * HALF)), _WORDS)
 
 
 def _shuffle_add(builder: ir.IRBuilder, a: ir.Value, b: ir.Value, first, second) -> ir.Value:
@@ -95,75 +114,142 @@ def prefetch(typingctx, array, offset):
     return types.none(array, offset), codegen
 
 
-def window_terms_intrinsic(pair_sums, halves: int):
-    """An intrinsic (left, right, bl, br, stride, rows, masks) → (Σd², Σ_c (Σd)_c², Sobel
-    Σ_c gx² + gy²) over ``rows`` rows of ``halves``·16 bytes from flat offsets bl (left) and br
-    (right), a row every ``stride`` bytes; the Sobel at the window's centre in the left image;
-    ``masks`` (_MASK_ROWS, 2, 16) int16 from :func:`lane_masks`."""
+class _Window:
+    """The code generator's view of one window pair: the images' and masks' pointers, the
+    offsets and stride, and each window row's lanes as int16 vectors. With sub-pixel weights
+    (q, across: the weight of the next column in 1/FRACTION, and its distance in bytes) the
+    right row is interpolated as it is loaded, ((FRACTION − q)·a + q·b + FRACTION/2) >>
+    FRACTION_BITS per lane, computed as a + (((b − a)·q·2⁷ + 2¹⁴) >> 15), one rounded high
+    product (vpmulhrsw): the same integer, since 2⁷·q ≤ 32640 fits int16."""
 
-    @intrinsic
-    def window_terms(typingctx, left, right, bl, br, stride, rows, masks):
+    def __init__(self, context, builder, signature, args, subpixel: bool, pair_sums):
+        self.builder = builder
+        self.rounded_high = rounded_high_x86 if pair_sums is pair_sums_x86 else rounded_high_generic
+        t, a = signature.args, args
+        self.lptr = context.make_array(t[0])(context, builder, a[0]).data
+        self.rptr = context.make_array(t[1])(context, builder, a[1]).data
+        self.bl, self.br, self.stride, self.rows = a[2], a[3], a[4], a[5]
+        self.mptr = builder.bitcast(
+            context.make_array(t[6])(context, builder, a[6]).data, _WORDS.as_pointer()
+        )
+        self.weight = None
+        if subpixel:
+            q = builder.trunc(context.cast(builder, a[7], t[7], types.int64), _I16)
+            self.across = context.cast(builder, a[8], t[8], types.int64)
+            self.weight = self._splat(builder.shl(q, ir.Constant(_I16, 15 - FRACTION_BITS)))
+
+    def _constant(self, value: int) -> ir.Constant:
+        return ir.Constant(_WORDS, [value] * HALF)
+
+    def _splat(self, value: ir.Value) -> ir.Value:
+        b = self.builder
+        one = b.insert_element(ir.Constant(_WORDS, ir.Undefined), value, ir.Constant(_I32, 0))
+        return b.shuffle_vector(one, one, ir.Constant(ir.VectorType(_I32, HALF), [0] * HALF))
+
+    def mask(self, row: int, half: int) -> ir.Value:
+        ptr = self.builder.gep(self.mptr, [ir.Constant(_I64, 2 * row + half)])
+        return self.builder.load(ptr, align=2)
+
+    def words(self, data, offset, half: int) -> ir.Value:
+        at = self.builder.add(offset, ir.Constant(_I64, half * HALF))
+        ptr = self.builder.bitcast(self.builder.gep(data, [at]), _BYTES.as_pointer())
+        return self.builder.zext(self.builder.load(ptr, align=1), _WORDS)
+
+    def right_words(self, offset, half: int) -> ir.Value:
+        a = self.words(self.rptr, offset, half)
+        if self.weight is None:
+            return a
+        b = self.builder
+        nxt = self.words(self.rptr, b.add(offset, self.across), half)
+        return b.add(a, self.rounded_high(b, b.sub(nxt, a), self.weight))
+
+    def rows_loop(self, body) -> None:
+        """body(left offset, right offset) for each window row."""
+        b = self.builder
+        offsets = cgutils.alloca_once_value(b, self.bl), cgutils.alloca_once_value(b, self.br)
+        with cgutils.for_range(b, self.rows):
+            lo, ro = b.load(offsets[0]), b.load(offsets[1])
+            body(lo, ro)
+            b.store(b.add(lo, self.stride), offsets[0])
+            b.store(b.add(ro, self.stride), offsets[1])
+
+    def sobel(self, halves: int) -> tuple[list, list]:
+        """The three left rows around the centre, summed down the columns (1, 2, 1) for gx
+        and differenced (below − above) for gy."""
+        b = self.builder
+        centre = b.add(self.bl, b.mul(b.lshr(self.rows, ir.Constant(_I64, 1)), self.stride))
+        above, below = b.sub(centre, self.stride), b.add(centre, self.stride)
+        smooth, slope = [], []
+        for h in range(halves):
+            a, m, c = (self.words(self.lptr, at, h) for at in (above, centre, below))
+            smooth.append(b.add(b.add(a, c), b.shl(m, self._constant(1))))
+            slope.append(b.sub(c, a))
+        return smooth, slope
+
+    def dot(self, pair_sums, lanes: list, row: int) -> ir.Value:
+        total = pair_sums(self.builder, lanes[0], self.mask(row, 0))
+        for h in range(1, len(lanes)):
+            total = self.builder.add(total, pair_sums(self.builder, lanes[h], self.mask(row, h)))
+        return total
+
+
+def _intrinsic(codegen, outputs: int, subpixel: bool):
+    """An intrinsic (left, right, bl, br, stride, rows, masks[, q, across]) → ``outputs``
+    int64s, on C-contiguous uint8 images: the sub-pixel form takes q and across."""
+
+    def signature(left, right, masks, args):
         byte_arrays = all(
             isinstance(a, types.Array) and a.dtype == types.uint8 and a.layout == "C"
             for a in (left, right)
         )
         if not (byte_arrays and isinstance(masks, types.Array) and masks.layout == "C"):
             return None
-        return types.UniTuple(types.int64, 3)(left, right, bl, br, stride, rows, masks), codegen
+        return types.UniTuple(types.int64, outputs)(*args), codegen
+
+    if subpixel:
+
+        @intrinsic
+        def interpolated(typingctx, left, right, bl, br, stride, rows, masks, q, across):
+            args = (left, right, bl, br, stride, rows, masks, q, across)
+            return signature(left, right, masks, args)
+
+        return interpolated
+
+    @intrinsic
+    def whole(typingctx, left, right, bl, br, stride, rows, masks):
+        return signature(left, right, masks, (left, right, bl, br, stride, rows, masks))
+
+    return whole
+
+
+def window_terms_intrinsic(pair_sums, halves: int, subpixel: bool = False):
+    """An intrinsic (left, right, bl, br, stride, rows, masks[, q, across]) → (Σd², Σ_c
+    (Σd)_c², Sobel Σ_c gx² + gy²) over ``rows`` rows of ``halves``·16 bytes from flat offsets
+    bl (left) and br (right), a row every ``stride`` bytes; the Sobel at the window's centre
+    in the left image; ``masks`` (_MASK_ROWS, 2, 16) int16 from :func:`lane_masks`;
+    ``subpixel``: the right rows interpolated (:class:`_Window`)."""
 
     def codegen(context, builder, signature, args):
-        left, right, bl, br, stride, rows, masks = args
-        t_left, t_right, _, _, _, _, t_masks = signature.args
-        lptr = context.make_array(t_left)(context, builder, left).data
-        rptr = context.make_array(t_right)(context, builder, right).data
-        mptr = builder.bitcast(
-            context.make_array(t_masks)(context, builder, masks).data, _WORDS.as_pointer()
-        )
-
-        def mask(row, half):
-            return builder.load(builder.gep(mptr, [ir.Constant(_I64, 2 * row + half)]), align=2)
-
-        def words(data, offset, half):
-            at = builder.add(offset, ir.Constant(_I64, half * HALF))
-            ptr = builder.bitcast(builder.gep(data, [at]), _BYTES.as_pointer())
-            return builder.zext(builder.load(ptr, align=1), _WORDS)
-
-        lane_mask = [mask(_MASK_LANES, h) for h in range(halves)]
+        w = _Window(context, builder, signature, args, subpixel, pair_sums)
+        lane_mask = [w.mask(_MASK_LANES, h) for h in range(halves)]
         s_acc = [cgutils.alloca_once_value(builder, ir.Constant(_WORDS, None)) for _ in lane_mask]
         q_acc = [cgutils.alloca_once_value(builder, ir.Constant(_PAIRS, None)) for _ in lane_mask]
-        offsets = cgutils.alloca_once_value(builder, bl), cgutils.alloca_once_value(builder, br)
-        with cgutils.for_range(builder, rows):
-            lo, ro = builder.load(offsets[0]), builder.load(offsets[1])
+
+        def row(lo, ro):
             for h in range(halves):
-                d = builder.and_(builder.sub(words(lptr, lo, h), words(rptr, ro, h)), lane_mask[h])
+                left = w.words(w.lptr, lo, h)
+                d = builder.and_(builder.sub(left, w.right_words(ro, h)), lane_mask[h])
                 builder.store(builder.add(builder.load(s_acc[h]), d), s_acc[h])
                 builder.store(
                     builder.add(builder.load(q_acc[h]), pair_sums(builder, d, d)), q_acc[h]
                 )
-            builder.store(builder.add(lo, stride), offsets[0])
-            builder.store(builder.add(ro, stride), offsets[1])
-        # Sobel: the three rows around the centre, summed down the columns (1, 2, 1) for gx and
-        # differenced (below − above) for gy.
-        centre = builder.add(bl, builder.mul(builder.lshr(rows, ir.Constant(_I64, 1)), stride))
-        above, below = builder.sub(centre, stride), builder.add(centre, stride)
-        smooth, slope = [], []
-        for h in range(halves):
-            a, m, b = (words(lptr, at, h) for at in (above, centre, below))
-            smooth.append(
-                builder.add(builder.add(a, b), builder.shl(m, ir.Constant(_WORDS, [1] * HALF)))
-            )
-            slope.append(builder.sub(b, a))
 
-        def dot(lanes, row):
-            total = pair_sums(builder, lanes[0], mask(row, 0))
-            for h in range(1, halves):
-                total = builder.add(total, pair_sums(builder, lanes[h], mask(row, h)))
-            return total
-
+        w.rows_loop(row)
+        smooth, slope = w.sobel(halves)
         s = [builder.load(a) for a in s_acc]
-        sums = [dot(s, _MASK_SUM + c) for c in range(MAX_CHANNELS)]
-        gx = [dot(smooth, _MASK_GX + c) for c in range(MAX_CHANNELS)]
-        gy = [dot(slope, _MASK_GY + c) for c in range(MAX_CHANNELS)]
+        sums = [w.dot(pair_sums, s, _MASK_SUM + c) for c in range(MAX_CHANNELS)]
+        gx = [w.dot(pair_sums, smooth, _MASK_GX + c) for c in range(MAX_CHANNELS)]
+        gy = [w.dot(pair_sums, slope, _MASK_GY + c) for c in range(MAX_CHANNELS)]
         q = builder.load(q_acc[0])
         for a in q_acc[1:]:
             q = builder.add(q, builder.load(a))
@@ -184,7 +270,7 @@ def window_terms_intrinsic(pair_sums, halves: int):
         sq = builder.sext(builder.extract_element(second, ir.Constant(_I32, 4)), _I64)
         return context.make_tuple(builder, signature.return_type, [sq, squares, grad2])
 
-    return window_terms
+    return _intrinsic(codegen, 3, subpixel)
 
 
 def target_has_avx2() -> bool:
@@ -219,84 +305,39 @@ def lane_masks(window, channels, gy_weight=1):  # pragma: no cover - compiled
     return masks
 
 
-def ncc_terms_intrinsic(pair_sums, halves: int):
-    """As :func:`window_terms_intrinsic`, for ZNCC: (left, right, bl, br, stride, rows, masks)
-    → (n·Σlr − Σ_c Σl_c·Σr_c, n·Σl² − Σ_c (Σl_c)², n·Σr² − Σ_c (Σr_c)², Sobel norm²) with
-    n = rows² (:func:`flylog.fly.fitness_terms.ncc_lanes`'s three sums). Σl and Σr are kept
-    per lane in int16, Σl², Σr², Σlr in int32 lane pairs: only Σl and Σr are needed by
-    channel, the others over every lane."""
-
-    @intrinsic
-    def ncc_terms(typingctx, left, right, bl, br, stride, rows, masks):
-        byte_arrays = all(
-            isinstance(a, types.Array) and a.dtype == types.uint8 and a.layout == "C"
-            for a in (left, right)
-        )
-        if not (byte_arrays and isinstance(masks, types.Array) and masks.layout == "C"):
-            return None
-        return types.UniTuple(types.int64, 4)(left, right, bl, br, stride, rows, masks), codegen
+def ncc_terms_intrinsic(pair_sums, halves: int, subpixel: bool = False):
+    """As :func:`window_terms_intrinsic`, for ZNCC: (left, right, bl, br, stride, rows,
+    masks[, q, across]) → (n·Σlr − Σ_c Σl_c·Σr_c, n·Σl² − Σ_c (Σl_c)², n·Σr² − Σ_c (Σr_c)²,
+    Sobel norm²) with n = rows² (:func:`flylog.fly.fitness_terms.ncc_lanes`'s three sums). Σl
+    and Σr are kept per lane in int16, Σl², Σr², Σlr in int32 lane pairs: only Σl and Σr are
+    needed by channel, the others over every lane."""
 
     def codegen(context, builder, signature, args):
-        left, right, bl, br, stride, rows, masks = args
-        t_left, t_right, _, _, _, _, t_masks = signature.args
-        lptr = context.make_array(t_left)(context, builder, left).data
-        rptr = context.make_array(t_right)(context, builder, right).data
-        mptr = builder.bitcast(
-            context.make_array(t_masks)(context, builder, masks).data, _WORDS.as_pointer()
-        )
-
-        def mask(row, half):
-            return builder.load(builder.gep(mptr, [ir.Constant(_I64, 2 * row + half)]), align=2)
-
-        def words(data, offset, half):
-            at = builder.add(offset, ir.Constant(_I64, half * HALF))
-            ptr = builder.bitcast(builder.gep(data, [at]), _BYTES.as_pointer())
-            return builder.zext(builder.load(ptr, align=1), _WORDS)
+        w = _Window(context, builder, signature, args, subpixel, pair_sums)
 
         def zeros(vector_type):
             return [cgutils.alloca_once_value(builder, ir.Constant(vector_type, None))
                     for _ in range(halves)]  # fmt: skip
 
-        lane_mask = [mask(_MASK_LANES, h) for h in range(halves)]
-        sl, sr, ql, qr, x = (
-            zeros(_WORDS),
-            zeros(_WORDS),
-            zeros(_PAIRS),
-            zeros(_PAIRS),
-            zeros(_PAIRS),
-        )
-        offsets = cgutils.alloca_once_value(builder, bl), cgutils.alloca_once_value(builder, br)
+        lane_mask = [w.mask(_MASK_LANES, h) for h in range(halves)]
+        sl, sr = zeros(_WORDS), zeros(_WORDS)
+        ql, qr, x = zeros(_PAIRS), zeros(_PAIRS), zeros(_PAIRS)
 
         def accumulate(acc, value):
             builder.store(builder.add(builder.load(acc), value), acc)
 
-        with cgutils.for_range(builder, rows):
-            lo, ro = builder.load(offsets[0]), builder.load(offsets[1])
+        def row(lo, ro):
             for h in range(halves):
-                a = builder.and_(words(lptr, lo, h), lane_mask[h])
-                b = builder.and_(words(rptr, ro, h), lane_mask[h])
+                a = builder.and_(w.words(w.lptr, lo, h), lane_mask[h])
+                b = builder.and_(w.right_words(ro, h), lane_mask[h])
                 accumulate(sl[h], a)
                 accumulate(sr[h], b)
                 accumulate(ql[h], pair_sums(builder, a, a))
                 accumulate(qr[h], pair_sums(builder, b, b))
                 accumulate(x[h], pair_sums(builder, a, b))
-            builder.store(builder.add(lo, stride), offsets[0])
-            builder.store(builder.add(ro, stride), offsets[1])
-        centre = builder.add(bl, builder.mul(builder.lshr(rows, ir.Constant(_I64, 1)), stride))
-        above, below = builder.sub(centre, stride), builder.add(centre, stride)
-        smooth, slope = [], []
-        for h in range(halves):
-            a, m, b = (words(lptr, at, h) for at in (above, centre, below))
-            smooth.append(
-                builder.add(builder.add(a, b), builder.shl(m, ir.Constant(_WORDS, [1] * HALF)))
-            )
-            slope.append(builder.sub(b, a))
 
-        def dot(lanes, row):
-            total = pair_sums(builder, lanes[0], mask(row, 0))
-            for h in range(1, halves):
-                total = builder.add(total, pair_sums(builder, lanes[h], mask(row, h)))
-            return total
+        w.rows_loop(row)
+        smooth, slope = w.sobel(halves)
 
         def total(accs):
             v = builder.load(accs[0])
@@ -310,13 +351,13 @@ def ncc_terms_intrinsic(pair_sums, halves: int):
         # lanes 0-3: Σl by channel, 4-7: Σr by channel, in the same channel order
         first = _sums_of_eight(
             builder,
-            [dot(left_sums, _MASK_SUM + c) for c in channel]
-            + [dot(right_sums, _MASK_SUM + c) for c in channel],
+            [w.dot(pair_sums, left_sums, _MASK_SUM + c) for c in channel]
+            + [w.dot(pair_sums, right_sums, _MASK_SUM + c) for c in channel],
         )
         second = _sums_of_eight(  # lanes 0-3: gx, 4-7: gy
             builder,
-            [dot(smooth, _MASK_GX + c) for c in channel]
-            + [dot(slope, _MASK_GY + c) for c in channel],
+            [w.dot(pair_sums, smooth, _MASK_GX + c) for c in channel]
+            + [w.dot(pair_sums, slope, _MASK_GY + c) for c in channel],
         )
         quad = ir.VectorType(_I32, 4)
 
@@ -333,14 +374,18 @@ def ncc_terms_intrinsic(pair_sums, halves: int):
         grad2 = _reduce(
             builder, builder.add(builder.mul(gx4, gx4), builder.mul(gy4, gy4)), "v4i32", 32
         )
-        n = builder.mul(rows, rows)
+        n = builder.mul(w.rows, w.rows)
         cov = builder.sub(builder.mul(n, total(x)), reduce64(by_l, by_r))
         vl = builder.sub(builder.mul(n, total(ql)), reduce64(by_l, by_l))
         vr = builder.sub(builder.mul(n, total(qr)), reduce64(by_r, by_r))
         return context.make_tuple(builder, signature.return_type, [cov, vl, vr, grad2])
 
-    return ncc_terms
+    return _intrinsic(codegen, 4, subpixel)
 
 
 ncc_terms_16 = ncc_terms_intrinsic(PAIR_SUMS, 1)
 ncc_terms_32 = ncc_terms_intrinsic(PAIR_SUMS, 2)
+window_terms_sub_16 = window_terms_intrinsic(PAIR_SUMS, 1, subpixel=True)
+window_terms_sub_32 = window_terms_intrinsic(PAIR_SUMS, 2, subpixel=True)
+ncc_terms_sub_16 = ncc_terms_intrinsic(PAIR_SUMS, 1, subpixel=True)
+ncc_terms_sub_32 = ncc_terms_intrinsic(PAIR_SUMS, 2, subpixel=True)

@@ -1,11 +1,20 @@
-"""engine.similarity = zncc: the compiled kernel against the numpy references, and its
-invariance to a gain and an offset between the cameras."""
+"""engine.similarity = zncc and engine.subpixel: the compiled kernels against the numpy
+references, and ZNCC's invariance to a gain and an offset between the cameras."""
 
+import numba
 import numpy as np
 import pytest
 
+from flylog.fly import fitness_vector
 from flylog.fly.config import Gradient, Similarity
 from flylog.fly.fitness import INVALID_FITNESS, NCC_SCALE, fitness_numba, fitness_numpy
+from flylog.fly.fitness_terms import (
+    FRACTION,
+    ncc_lanes,
+    sobel_norm2,
+    windows_into,
+    zssd_lanes,
+)
 from flylog.geometry import StereoRig
 
 SMALL = StereoRig(width=64, height=48, focal_px=50.0, baseline=0.12)
@@ -131,3 +140,85 @@ def test_subpixel_finds_a_half_pixel_shift_that_whole_pixels_miss():
     exact = fitness_numba(left, right, xyz, SMALL, 7, 1.0, subpixel=True)
     rounded = fitness_numba(left, right, xyz, SMALL, 7, 1.0)
     assert np.median(exact / rounded) > 2.0
+
+
+def _border_case(seed, channels, window, n=400):
+    # Flies whose windows touch the images' edges: the left projection within two pixels of
+    # the first or last valid column and row, 0-4 px of disparity (the right window too).
+    rng = np.random.default_rng(seed)
+    shape = (SMALL.height, SMALL.width) + ((channels,) if channels > 1 else ())
+    left = rng.integers(0, 256, shape, dtype=np.uint8)
+    right = rng.integers(0, 256, shape, dtype=np.uint8)
+    h = window // 2
+
+    def near_edges(size):
+        low = rng.uniform(h - 2, h + 6, n)
+        high = rng.uniform(size - 1 - h - 2, size - 1 - h + 2, n)
+        return np.where(rng.random(n) < 0.5, low, high)
+
+    u, v = near_edges(SMALL.width), near_edges(SMALL.height)
+    disparity = rng.uniform(0.0, 4.0, n)
+    return left, right, SMALL.backproject(u, v, SMALL.fb / (disparity + SMALL.doffs))
+
+
+# Every window the vector kernels take: window·channels ≤ 32 bytes a row, 16 or 32 lanes.
+VECTOR_WINDOWS = [(c, w) for c in (1, 3, 4) for w in range(3, 33, 2) if w * c <= 32]
+
+
+@pytest.mark.parametrize("similarity", list(Similarity))
+@pytest.mark.parametrize(("channels", "window"), VECTOR_WINDOWS)
+def test_subpixel_kernel_equals_numpy_reference_at_the_borders(similarity, channels, window):
+    left, right, xyz = _border_case(channels * 100 + window, channels, window)
+    want = fitness_numpy(left, right, xyz, SMALL, window, 1.0, similarity=similarity, subpixel=True)
+    assert (want > 0).sum() > 40
+    assert (want == INVALID_FITNESS).sum() > 40
+    got = fitness_numba(left, right, xyz, SMALL, window, 1.0, similarity=similarity, subpixel=True)
+    np.testing.assert_array_equal(got, want)
+
+
+PAIR_SUMS = [fitness_vector.pair_sums_generic] + (
+    [fitness_vector.pair_sums_x86] if fitness_vector.target_has_avx2() else []
+)
+
+
+@pytest.mark.parametrize("pair_sums", PAIR_SUMS, ids=lambda f: f.__name__)
+@pytest.mark.parametrize("similarity", list(Similarity))
+@pytest.mark.parametrize(("halves", "window", "channels"), [(1, 5, 3), (2, 7, 3), (2, 31, 1)])
+def test_subpixel_vector_terms_equal_the_copied_windows_for_every_weight(
+    pair_sums, similarity, halves, window, channels
+):
+    # The interpolating intrinsics against the lane loop on windows copied by windows_into,
+    # for every weight q, on random bytes and on right rows of 0 and 255 (the largest |b − a|).
+    factory = fitness_vector.window_terms_intrinsic
+    if similarity is ZNCC:
+        factory = fitness_vector.ncc_terms_intrinsic
+    terms = factory(pair_sums, halves, subpixel=True)
+
+    @numba.njit
+    def vector(left, right, bl, br, stride, window, channels, q):
+        masks = fitness_vector.lane_masks(window, channels, 1)
+        return terms(left, right, bl, br, stride, window, masks, q, channels)
+
+    rng = np.random.default_rng(halves * 100 + window)
+    stride, bs = 120, 40
+    lbuf = np.zeros(window * bs, dtype=np.uint8)
+    rbuf = np.zeros(window * bs, dtype=np.uint8)
+    scratch = np.empty((5, window * channels), dtype=np.int32)
+    n = window * window
+    for case in ("random", "salt"):
+        left = rng.integers(0, 256, 40 * stride, dtype=np.uint8)
+        right = rng.integers(0, 256, 40 * stride, dtype=np.uint8)
+        if case == "salt":
+            right = (255 * (rng.random(right.size) < 0.5)).astype(np.uint8)
+        bl, br = int(rng.integers(stride, 2 * stride)), int(rng.integers(stride, 2 * stride))
+        for q in range(FRACTION):
+            windows_into(left, right, bl, br, stride, window, channels, q, lbuf, rbuf, bs)
+            centre = (window // 2) * (bs + channels)
+            grad2 = sobel_norm2(lbuf, centre, bs, channels, 1)
+            got = vector(left, right, bl, br, stride, window, channels, q)
+            if similarity is ZNCC:
+                want = (*ncc_lanes(lbuf, rbuf, 0, 0, bs, window, channels, scratch), grad2)
+                assert got == want, (case, q)
+            else:
+                want = (zssd_lanes(lbuf, rbuf, 0, 0, bs, window, channels, scratch), grad2)
+                assert (n * got[0] - got[1], got[2]) == want, (case, q)
