@@ -1,5 +1,5 @@
 """The fitness kernel's window sums and Sobel (:mod:`flylog.fly.fitness`), on LLVM vectors written
-out by hand: numba widens int16 and int32 arithmetic to int64, which left the plain lane loop 4
+out by hand: numba widens int16 and int32 arithmetic to int64, which keeps a plain lane loop 4
 lanes wide with its accumulators in memory. Each window row is read as 16 or 32 bytes, widened
 to int16 lanes, one lane per (column, channel) byte; d = L − R is masked to the window's lanes;
 Σd is kept per lane in int16 (|Σd| ≤ 32·255) and Σd² in int32 lane pairs (vpmaddwd), in
