@@ -10,10 +10,15 @@ Figure: the share of the better half of the flies (fitness above the median) who
 f·B/Z − doffs is within 2 px of the truth at their left pixel, among those with a known
 truth; SGBM's share at the same pixels and over every pixel with a known truth; coverage, the
 share of 16×16 px cells with a known truth that hold such a good fly.
+
+Equal compute (what ``run`` reports): SGBM's wall time on each pair is the best of 5 (warm),
+and each variant of the flies runs as many generations as fit in it, its set-up of the pair
+and its generations timed in the same run with the kernels warm (best of 3).
 """
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import numpy as np
@@ -91,6 +96,39 @@ def sgbm_disparity(left, right) -> np.ndarray:
     return np.where(d >= 0, d, np.nan)
 
 
+def sgbm_seconds(left, right, repeats=5) -> float:
+    """Best of ``repeats`` wall times of :func:`sgbm_disparity` on the pair (warm)."""
+    sgbm_disparity(left, right)
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        sgbm_disparity(left, right)
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
+def generations_in(seconds, left, right, similarity, *, flies=5000, subpixel=True, probe=20,
+                   repeats=3, rig=RIG) -> int:  # fmt: skip
+    """How many generations fit in ``seconds`` of wall time on the pair, with the engine's
+    kernels warm: the best of ``repeats`` timings of a fresh pair's set-up and of ``probe``
+    generations, the set-up charged once."""
+    config = EngineConfig(flies=flies, similarity=similarity, subpixel=subpixel)
+    engine = FlyEngine(config, rig, np.random.default_rng(99))
+    pair = StereoPair(0, left, right)
+    engine.set_images(pair)
+    engine.steps(probe)
+    setup, per_generation = [], []
+    for i in range(repeats):
+        t0 = time.perf_counter()
+        engine.set_images(StereoPair(i + 1, left, right))
+        t1 = time.perf_counter()
+        engine.steps(probe)
+        t2 = time.perf_counter()
+        setup.append(t1 - t0)
+        per_generation.append((t2 - t1) / probe)
+    return max(1, int((seconds - min(setup)) / min(per_generation)))
+
+
 def within(estimate, truth) -> np.ndarray:
     """Whether each estimate is within the tolerance (NaN: not)."""
     with np.errstate(invalid="ignore"):
@@ -108,7 +146,11 @@ def coverage(vi, ui, ok, truth) -> float:
     return float((held & known).sum() / known.sum())
 
 
-def table(seeds=(0, 1), generations=50, flies=5000) -> list[dict]:
+def table(seeds=(0, 1), generations=50, flies=5000, equal_compute=False,
+          variants=VARIANTS) -> list[dict]:  # fmt: skip
+    """One row per condition; ``equal_compute``: each variant runs as many generations as
+    fit in SGBM's best wall time on that pair (``generations`` ignored), measured in this
+    run, and the row gives them under "<variant> generations"."""
     left, right, truth = motorcycle()
     rows = []
     for name in CONDITIONS:
@@ -116,7 +158,14 @@ def table(seeds=(0, 1), generations=50, flies=5000) -> list[dict]:
         sgbm = sgbm_disparity(l_img, r_img)
         known = np.isfinite(truth)
         row = {"condition": name, "sgbm all": float(within(sgbm[known], truth[known]).mean())}
-        for similarity, subpixel in VARIANTS:
+        if equal_compute:
+            row["sgbm ms"] = 1e3 * sgbm_seconds(l_img, r_img)
+        for similarity, subpixel in variants:
+            key = similarity.value + (" sub-pixel" if subpixel else "")
+            if equal_compute:
+                generations = generations_in(row["sgbm ms"] / 1e3, l_img, r_img, similarity,
+                                             flies=flies, subpixel=subpixel)  # fmt: skip
+                row[f"{key} generations"] = generations
             shares, at_same, cover = [], [], []
             for seed in seeds:
                 xyz, fit = run_flies(l_img, r_img, similarity, flies=flies, subpixel=subpixel,
@@ -125,7 +174,6 @@ def table(seeds=(0, 1), generations=50, flies=5000) -> list[dict]:
                 shares.append(ok.mean())
                 at_same.append(within(sgbm[vi, ui], truth[vi, ui]).mean())
                 cover.append(coverage(vi, ui, ok, truth))
-            key = similarity.value + (" sub-pixel" if subpixel else "")
             row[key] = float(np.mean(shares))
             row[f"sgbm at {key}"] = float(np.mean(at_same))
             row[f"{key} cover"] = float(np.mean(cover))
@@ -134,22 +182,26 @@ def table(seeds=(0, 1), generations=50, flies=5000) -> list[dict]:
 
 
 def run(out_dir: Path) -> list[dict]:
-    """The table (printed), and a figure per condition and measure for ``make bench``."""
-    rows = table()
+    """The equal-compute table (printed): each variant runs as many generations as fit in
+    SGBM's wall time on the pair, and a figure per condition and measure for ``make bench``."""
+    rows = table(equal_compute=True)
     keys = list(rows[0])
-    print("motorcycle 741×500, 5000 flies, 50 generations, mean of 2 seeds; share within 2 px")
+    print("motorcycle 741×500, 5000 flies, generations in SGBM's wall time, mean of 2 seeds; "
+          "share within 2 px")  # fmt: skip
     print(" | ".join(keys))
     for row in rows:
         print(" | ".join([row["condition"]] + [f"{row[k]:.3f}" for k in keys[1:]]))
     keys = [s.value + (" sub-pixel" if sub else "") for s, sub in VARIANTS]
     return [
         {
-            "name": f"motorcycle, {row['condition']}, {key}: better half within 2 px",
+            "name": f"motorcycle, {row['condition']}, {key}, equal compute: better half "
+            "within 2 px",
             "value": row[key],
             "unit": "share",
             "reference": "SGBM at the same pixels",
             "ratio": row[key] / row[f"sgbm at {key}"],
-            "note": f"SGBM over all pixels {row['sgbm all']:.3f}, "
+            "note": f"{row[f'{key} generations']} generations in SGBM's "
+            f"{row['sgbm ms']:.1f} ms, SGBM over all pixels {row['sgbm all']:.3f}, "
             f"coverage of 16×16 cells {row[f'{key} cover']:.3f}",
         }
         for row in rows

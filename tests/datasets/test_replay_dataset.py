@@ -54,10 +54,11 @@ def test_generations_per_frame_runs_that_many_on_the_one_frame_and_scores_it(pla
     result = score_run(tmp_path / "run.mcap", plane_log)
     s = result.summary
     assert s["truth_images"] == 1 and s["scored_points"] > 50
-    # a textured plane: the flies taken find it (measured: bad2 0, precision 0.92 (τ = 5 %
-    # of the depth is 0.62 px here), coverage and recall 0.8)
-    assert s["bad2"] <= 0.05 and s["precision"] >= 0.85
-    assert s["coverage"] >= 0.6 and s["recall"] >= 0.6
+    # a textured plane: the flies taken find it (measured, sub-pixel, seeds 0-2: bad2 0,
+    # precision 1.0 (τ = 5 % of the depth is 0.62 px here), coverage and recall 0.55-0.70;
+    # on whole pixels precision 0.92-0.95, coverage and recall 0.80-0.85)
+    assert s["bad2"] <= 0.05 and s["precision"] >= 0.95
+    assert s["coverage"] >= 0.5 and s["recall"] >= 0.5
     assert s["disparity_error_median_px"] < 0.5
     assert s["sgbm_dense_bad2"] is None  # a flies run has no dense map
     assert result.snapshots[-1]["bad2"] == s["bad2"]

@@ -48,7 +48,7 @@ def test_a_run_without_its_log_is_an_error_and_leaves_nothing(run: Path, tmp_pat
 def test_the_metrics_outputs_are_shown_as_they_are(run: Path, tmp_path: Path) -> None:
     metrics = tmp_path / "m.parquet"
     scored = CliRunner().invoke(
-        cli, ["metrics", str(run), "--log", str(LOG), "-o", str(metrics), "--tau", "0.2"]
+        cli, ["metrics", str(run), "--log", str(LOG), "-o", str(metrics), "--tau", "0.01"]
     )
     assert scored.exit_code == 0, scored.output
     precision = read_summary(metrics)["precision"]

@@ -123,11 +123,13 @@ def test_with_sonar_fusion_fly_positions_agree_within_a_tenth_of_a_millimetre(
 def test_jpeg_export_scores_within_the_stated_tolerance(exported, tmp_path):
     """jpeg changes the pixels, so each run's flies evolve differently: compare the mean
     precision and recall over seeds 0-2, whose spread on the log itself is 0.07 and 0.02
-    (measured over seeds 0-4: precision 0.32-0.42, recall 0.08-0.15)."""
+    (measured over seeds 0-4: precision 0.32-0.42, recall 0.08-0.15). Whole pixels: the
+    tolerance is measured there; sub-pixel flies, more accurate on the log, lose more to
+    jpeg's artefacts (recall 0.125 apart over seeds 0-2)."""
     config = MetricsConfig()
     scores = {"log": [], "jpeg": []}
     for seed in range(3):
-        cfg = replace_dotted(NO_SONAR, {"seed": seed})
+        cfg = replace_dotted(NO_SONAR, {"seed": seed, "engine.subpixel": False})
         for name, source in (("log", CORRIDOR), ("jpeg", exported[ImageFormat.JPEG])):
             run = replay(source, tmp_path / f"{name}-{seed}.mcap", cfg)
             # each run against the truth of what it replayed (the export carries --truth)
