@@ -194,6 +194,12 @@ def _describe_planner(planner: PlannerConfig, overrides: Mapping[str, object]) -
         f"{planner.turn_in_place_deg:g}°; sonar echoes nearer than {planner.sonar_range:g} m "
         "mark their arcs as obstacles at once"
         + ("" if planner.sonar_range > 0 else " (off)")
+        + (
+            f"; every sonar's cone up to its echo (its maximum range without one) less "
+            f"{planner.sonar_free_margin:g} m counts as seen free"
+            if planner.sonar_clears
+            else ""
+        )
         + f"; remembered obstacle cells within {planner.clear_min_range:g} m are never "
         "cleared as seen free; the obstacle-free field is relaxed before the first tick "
         f"(at most {planner.warm_start_sweeps} sweeps), then each tick relaxes "

@@ -156,6 +156,22 @@ class PlannerConfig:
         unit="m",
         min=0.0,
     )
+    sonar_clears: bool = param(
+        True,
+        help="a sonar's cone up to its echo (up to its maximum range without one), less "
+        "sonar_free_margin, counts as seen free, and the flies in it are left out of the "
+        "density: false matches that gather at a near, confident depth in an empty passage "
+        "outweigh the lines of sight through them, but the sonars hear nothing there "
+        "(docs/navigation.md; sonar-absorbing obstacles are cleared too)",
+    )
+    sonar_free_margin: float = param(
+        0.15,
+        help="how much nearer than a sonar's echo (or its maximum range) a cell's centre must "
+        "lie to count as sonar-free: the range noise (0.02 m) three times over and a cell's "
+        "half-diagonal (0.07 m)",
+        unit="m",
+        min=0.0,
+    )
     view_range: float = param(
         6.0, help="default camera view range for obstacle updates", unit="m", min=0.0
     )

@@ -19,6 +19,7 @@ import numpy as np
 from flylog.geometry import Pose2D
 from flylog.planner import evidence as ev
 from flylog.planner import obstacles as obs
+from flylog.planner import sonar_free as sf
 from flylog.planner.config import PlannerConfig
 from flylog.planner.grid import GridGeometry
 
@@ -47,10 +48,14 @@ class ObstacleMap:
         view_range: float,
         sonar_xy: np.ndarray | None = None,
         focal_baseline: float | None = None,
+        sonar_cones: tuple[np.ndarray, float] | None = None,
     ) -> int:
         """Fold one update's obstacle flies (M, 2+) in odom and sonar arc points (M, 2) into
         the memory; ``focal_baseline`` (pixels × metres) turns on the depth weighting and the
-        lines of sight. Returns how many inflated obstacle cells changed."""
+        lines of sight; ``sonar_cones``, the sonars' free cones (n, 4) as
+        :func:`~flylog.planner.sonar_free.free_cones` gives them and their half opening
+        angle (rad), clear the cells they cover (with ``sonar_clears``). Returns how many
+        inflated obstacle cells changed."""
         cfg = self.config
         vr = float(view_range)
         pts = np.asarray(points_odom_xy, dtype=np.float64)
@@ -59,6 +64,12 @@ class ObstacleMap:
             raise ValueError(msg)
         rows, cols = self.window(robot_pose, vr)
         weight, through = self._fly_evidence(pts, robot_pose, vr, focal_baseline)
+        sonar_free = None
+        if sonar_cones is not None and cfg.sonar_clears:
+            sonar_free = sf.cone_cells(self.geometry, sonar_cones[0], sonar_cones[1], rows, cols)
+            # the flies the sonars hear nothing at weigh nothing in the density either
+            weight = weight.astype(np.float64, copy=True)
+            weight[rows, cols][sonar_free] = 0.0
         dense = obs.dense_cells(
             weight, cfg.cell_size, cfg.density_window_cells, cfg.density_threshold, rows, cols
         )
@@ -80,6 +91,8 @@ class ObstacleMap:
             free = obs.seen_free(in_view, dense_now, rng, bearing, half_fov, cfg.cell_size, vr)
             if looked_through is not None:
                 free |= looked_through & in_view
+            if sonar_free is not None:
+                free |= sonar_free
             free &= rng >= cfg.clear_min_range
             if echoed is not None:
                 free &= ~echoed[rows, cols]

@@ -147,16 +147,19 @@ class HarmonicPlanner:
         view_range: float | None = None,
         sonar_xy: np.ndarray | None = None,
         focal_baseline: float | None = None,
+        sonar_cones: tuple[np.ndarray, float] | None = None,
     ) -> int:
         """Fold the obstacle flies seen now (points (M, 2) or (M, 3) in odom) and the sonar
         echoes' arc points ``sonar_xy`` (M, 2) in odom into the map (:class:`~flylog.
         planner.map.ObstacleMap`'s rules; ``focal_baseline``, the rig's focal length in
         pixels times its baseline, weights the flies by their depth error and casts their
-        lines of sight). Returns how many inflated obstacle cells changed."""
+        lines of sight; ``sonar_cones``: the sonars' free cones and their half opening angle,
+        :mod:`flylog.planner.sonar_free`). Returns how many inflated obstacle cells
+        changed."""
         vr = self.config.view_range if view_range is None else float(view_range)
         version = self.map.version
         changed = self.map.update(
-            points_odom_xy, robot_pose, half_fov, vr, sonar_xy, focal_baseline
+            points_odom_xy, robot_pose, half_fov, vr, sonar_xy, focal_baseline, sonar_cones
         )
         if self.map.version != version:
             self._apply_dirichlet()

@@ -19,6 +19,7 @@ from flylog.geometry import Pose2D, StereoRig, relative, transform_points_2d
 from flylog.io import contract, encode
 from flylog.planner import HarmonicPlanner
 from flylog.planner.obstacles import sonar_arc_points
+from flylog.planner.sonar_free import free_cones
 from flylog.replay.config import ReplayConfig
 from flylog.replay.obstacle_cache import Evidence
 from flylog.replay.overlay import fly_overlay
@@ -105,6 +106,7 @@ class PlannerJobs:
                 view_range=self._mapping_range,
                 sonar_xy=self._echoes(tick.sonar),
                 focal_baseline=self.rig.focal_px * self.rig.baseline,
+                sonar_cones=self._free_cones(tick.sonar),
             )
         change = self.planner.relax()
         pose, t_ns = tick.odom.pose, tick.t_ns
@@ -146,6 +148,17 @@ class PlannerJobs:
         reading, pose = sonar
         arcs = sonar_arc_points(reading, reach, 0.5 * self.config.planner.cell_size)
         return transform_points_2d(pose, arcs) if len(arcs) else None
+
+    def _free_cones(
+        self, sonar: tuple[SonarReading, Pose2D] | None
+    ) -> tuple[np.ndarray, float] | None:
+        """The sonar reading's free cones in odom and their half opening angle, for the
+        planner (None: no reading, or planner.sonar_clears off)."""
+        cfg = self.config.planner
+        if sonar is None or not cfg.sonar_clears:
+            return None
+        reading, pose = sonar
+        return free_cones(reading, pose, cfg.sonar_free_margin), reading.half_cone
 
     def snapshot(self, snap: SnapshotInputs) -> Outputs:
         """A snapshot's messages: the flies (with each fly's distinctness when the obstacle

@@ -24,3 +24,9 @@ def test_setup_names_the_field_and_the_overrides():
     assert "obstacles weighted 0.03 among a free cell's neighbours" in robin
     assert "steers at the point 0.5 m down the descent path" in robin
     assert "overridden" not in robin
+
+
+def test_setup_names_the_sonar_free_cones_when_they_are_on():
+    on = _describe_planner(PlannerConfig(sonar_free_margin=0.2), {})
+    assert "every sonar's cone up to its echo (its maximum range without one) less 0.2 m" in on
+    assert "sonar's cone" not in _describe_planner(PlannerConfig(sonar_clears=False), {})
