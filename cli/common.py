@@ -39,10 +39,25 @@ class Terminated(BaseException):
         self.signum = signum
 
 
+# Stop signals received in the current command (process-wide, as signal handlers are). A
+# handler's exception raised while a finaliser runs (a ``__del__`` or weakref callback, which
+# garbage collection calls at any point) is printed and dropped by Python; the progress
+# callbacks raise it again from here.
+_received: list[int] = []
+
+
 def _on_stop_signal(signum: int, frame: object) -> None:
     for s in STOP_SIGNALS:  # a second signal must not interrupt the clean-up
         signal.signal(s, signal.SIG_IGN)
+    _received.append(signum)
     raise Terminated(signum)
+
+
+def raise_if_stopped() -> None:
+    """Raise Terminated if a stop signal arrived in this command, again if its first
+    exception was dropped."""
+    if _received:
+        raise Terminated(_received[0])
 
 
 @contextmanager
@@ -51,6 +66,7 @@ def stop_signals_interrupt() -> Iterator[None]:
     if threading.current_thread() is not threading.main_thread():
         yield
         return
+    _received.clear()
     previous = {s: signal.signal(s, _on_stop_signal) for s in STOP_SIGNALS}
     try:
         yield
@@ -147,14 +163,24 @@ def progress_bar(
     description: str, unit: str, console: Console = stderr
 ) -> Iterator[Callable[[float, float], None]]:
     """A rich progress bar with ETA on ``console``; yields ``update(done, total)`` in ``unit``
-    (e.g. "frames", "s" of log time). Nothing when the console is not a terminal."""
+    (e.g. "frames", "s" of log time). Nothing drawn when the console is not a terminal.
+    Each update first raises a stop signal's exception that was dropped (raise_if_stopped)."""
     if not console.is_terminal:  # no bar: rich.progress is not even imported (~10 ms)
-        yield lambda done, total: None
+
+        def checked(done: float, total: float) -> None:
+            raise_if_stopped()
+
+        yield checked
         return
     from flylog.cli.progress import drawn_progress_bar
 
     with drawn_progress_bar(description, unit, console) as update:
-        yield update
+
+        def checked_update(done: float, total: float) -> None:
+            raise_if_stopped()
+            update(done, total)
+
+        yield checked_update
 
 
 # Image sides the command line accepts: those of StereoRig's width and height.
