@@ -85,12 +85,12 @@ def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, gua
             first_l[t] = bl
             first_r[t] = br
         for t in range(min(_AHEAD, m)):
-            _prefetch_window(lflat, rflat, first_l[t], first_r[t], stride, window, lanes)
+            _prefetch_window(lflat, rflat, first_l[t], first_r[t], stride, window, lanes, 0)
         for t in range(m):
             if t + _AHEAD < m:
                 ahead = t + _AHEAD
                 _prefetch_window(
-                    lflat, rflat, first_l[ahead], first_r[ahead], stride, window, lanes
+                    lflat, rflat, first_l[ahead], first_r[ahead], stride, window, lanes, 0
                 )
             bl = first_l[t]
             br = first_r[t]
