@@ -169,21 +169,3 @@ def discard_logs(path: Path, options: ExperimentOptions) -> None:
     """Remove ``runs/`` unless the options keep the logs."""
     if not options.keep_logs:
         shutil.rmtree(path / "runs", ignore_errors=True)
-
-
-class Steps:
-    """Counts finished steps for ``on_progress(done, total)``."""
-
-    def __init__(self, total: int, on_progress: Progress | None) -> None:
-        self.total = total
-        self.done = 0
-        self._report = on_progress
-        self.report()
-
-    def report(self) -> None:
-        if self._report is not None:
-            self._report(float(self.done), float(self.total))
-
-    def step(self) -> None:
-        self.done += 1
-        self.report()
