@@ -35,7 +35,12 @@ class ExperimentPlan:
 
 
 def run_cell(cell: ExperimentCell) -> Any:
-    return cell.run(cell.task)
+    """The cell's result; an error it raises names the experiment and the cell."""
+    try:
+        return cell.run(cell.task)
+    except Exception as exc:
+        exc.add_note(f"in the {cell.experiment} experiment's cell {cell.label}")
+        raise
 
 
 def log_seconds_work(seconds: float, engine_runs: int, *, pixel_scale: float = 1.0) -> float:

@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from flylog.experiments import experiment_plan, proprioception, sonar
+from flylog.experiments.cells import ExperimentCell, run_cell
 from flylog.experiments.common import ExperimentOptions
 from flylog.experiments.parallel import run_experiments
 from flylog.sweep.order import longest_first_order
@@ -79,3 +80,10 @@ def test_progress_counts_the_cells_of_every_experiment(written: dict[str, Path])
 
 def test_cells_go_out_longest_first_ties_in_order() -> None:
     assert longest_first_order([1.0, 3.0, 2.0, 3.0]) == [1, 3, 2, 0]
+
+
+def test_an_error_in_a_cell_names_the_experiment_and_the_cell() -> None:
+    cell = ExperimentCell("sonar", "near-obstacle, seed 3", 1.0, math.sqrt, -1.0)
+    with pytest.raises(ValueError, match="math domain error") as caught:
+        run_cell(cell)
+    assert caught.value.__notes__ == ["in the sonar experiment's cell near-obstacle, seed 3"]
