@@ -41,8 +41,13 @@ fuzz: $(STAMP)
 	$(BIN)/python -m tests.io.fuzz fixtures/logs/near-obstacle.mcap --lz4-copy 65536 \
 		--mutants 5000 --workers 2
 
+# docs/experiments/ as committed: three experiments at their defaults, the closed loop with
+# 10 seeds; each command runs its cells on a pool of all the cores (docs/experiments/README.md).
 experiments: $(STAMP)
-	$(BIN)/flylog experiment all -o docs/experiments
+	$(BIN)/flylog experiment proprioception -o docs/experiments
+	$(BIN)/flylog experiment sonar -o docs/experiments
+	$(BIN)/flylog experiment latency -o docs/experiments
+	$(BIN)/flylog experiment closed-loop --seeds 10 -o docs/experiments
 
 # docs/configuration.md and the table schemas in docs/metrics.md, from the code (a test
 # checks they are current).

@@ -1,4 +1,4 @@
-"""``flylog experiment``: thin wrapper over :func:`flylog.experiments.run_experiment`."""
+"""``flylog experiment``: thin wrapper over :func:`flylog.experiments.parallel.run_experiments`."""
 
 from __future__ import annotations
 
@@ -72,8 +72,9 @@ DEFAULT_SEEDS = 5
     type=click.IntRange(min=1),
     default=None,
     metavar="N",
-    help="With several experiments (all): run N of them at once, each in its own process "
-    "(flylog.sweep's process pool). [default: the cores this process may use]",
+    help="Worker processes (flylog.sweep's process pool) that run the experiments' cells, "
+    "one (scene, seed) each, the longest first; each worker gets cores / N numba threads. "
+    "The results do not depend on N. [default: the cores this process may use]",
 )
 @reports_errors
 def experiment(
@@ -95,8 +96,10 @@ def experiment(
     detection latency and planner reaction, Table 1), closed-loop (obstacle avoidance on
     corridor and clutter: Fig. 7/8), all.
     """
-    from flylog.experiments import EXPERIMENTS, experiment_names, run_experiment
+    from flylog.experiments import EXPERIMENTS, experiment_names
     from flylog.experiments.common import ExperimentOptions
+    from flylog.experiments.parallel import run_experiments
+    from flylog.sweep.executors import default_workers
 
     names = experiment_names(name)
     options = ExperimentOptions(
@@ -106,24 +109,11 @@ def experiment(
         flies=flies,
         keep_logs=keep_logs,
     )
-    from flylog.sweep.executors import default_workers
-
-    workers = workers or default_workers()
-    if len(names) > 1 and workers > 1:
-        from flylog.experiments.parallel import LONGEST_FIRST, run_experiments
-
-        order = sorted(names, key=lambda n: LONGEST_FIRST.index(n))
-        with progress_bar(f"experiments {', '.join(order)}", unit="experiments") as update:
-            results = run_experiments(
-                order, output, options, workers=workers,
-                on_done=lambda _, done, total: update(done, total),
-            )  # fmt: skip
-        for one, result in zip(order, results, strict=True):
-            _print_result(result, EXPERIMENTS[one][2])
-        return
-    for one in names:
-        with progress_bar(f"experiment {one}", unit="runs") as update:
-            result = run_experiment(one, output, options, on_progress=update)
+    with progress_bar(f"experiment {', '.join(names)}", unit="cells") as update:
+        results = run_experiments(
+            names, output, options, workers=workers or default_workers(), on_progress=update
+        )
+    for one, result in zip(names, results, strict=True):
         _print_result(result, EXPERIMENTS[one][2])
 
 

@@ -1,13 +1,14 @@
 """flylog.experiments: the paper's experiments, reproduced with tables and plots.
 
-``run_experiment(name, out_dir, options)`` runs one of :data:`EXPERIMENTS` and writes
-``out_dir/NAME/summary.md`` with its PNGs; the modules are imported only when run.
+``run_experiment(name, out_dir, options)`` runs one of :data:`EXPERIMENTS` in this process
+and writes ``out_dir/NAME/summary.md`` with its PNGs; ``flylog.experiments.parallel`` runs
+the same cells (``experiment_plan``) on a process pool. The modules are imported only when
+run.
 """
 
 from __future__ import annotations
 
 import importlib
-from collections.abc import Callable
 from pathlib import Path
 from types import MappingProxyType
 from typing import TYPE_CHECKING
@@ -15,25 +16,26 @@ from typing import TYPE_CHECKING
 from flylog.errors import ConfigError
 
 if TYPE_CHECKING:
-    from flylog.experiments.common import ExperimentOptions, ExperimentResult
+    from flylog.experiments.cells import ExperimentPlan
+    from flylog.experiments.common import ExperimentOptions, ExperimentResult, Progress
 
-# name → (module, function, what it reproduces)
+# name → (module, the function that plans its cells, what it reproduces)
 EXPERIMENTS = MappingProxyType(
     {
         "proprioception": (
             "proprioception",
-            "run_proprioception",
+            "plan_proprioception",
             "proprioception on/off on turn, one generation per frame (Fig. 4/5)",
         ),
-        "sonar": ("sonar", "run_sonar", "sonar fusion on/off on near-obstacle (Fig. 9)"),
+        "sonar": ("sonar", "plan_sonar", "sonar fusion on/off on near-obstacle (Fig. 9)"),
         "latency": (
             "latency",
-            "run_latency",
+            "plan_latency",
             "async vs sync vs SGBM: detection latency, planner reaction (Table 1)",
         ),
         "closed-loop": (
             "closed_loop",
-            "run_closed_loop",
+            "plan_closed_loop",
             "closed-loop avoidance on corridor and clutter (Fig. 7/8)",
         ),
     }
@@ -50,15 +52,24 @@ def experiment_names(name: str) -> list[str]:
     return [name]
 
 
+def experiment_plan(name: str, out_dir: Path, options: ExperimentOptions) -> ExperimentPlan:
+    """The cells of the experiment ``name`` (one of :data:`EXPERIMENTS`), writing into
+    ``out_dir/name/``."""
+    experiment_names(name)
+    module, function, _ = EXPERIMENTS[name]
+    plan = getattr(importlib.import_module(f"flylog.experiments.{module}"), function)
+    return plan(Path(out_dir), options)
+
+
 def run_experiment(
     name: str,
     out_dir: Path,
     options: ExperimentOptions,
     *,
-    on_progress: Callable[[float, float], None] | None = None,
+    on_progress: Progress | None = None,
 ) -> ExperimentResult:
-    """Run the experiment ``name`` (one of :data:`EXPERIMENTS`) into ``out_dir/name/``."""
-    experiment_names(name)
-    module, function, _ = EXPERIMENTS[name]
-    run = getattr(importlib.import_module(f"flylog.experiments.{module}"), function)
-    return run(Path(out_dir), options, on_progress=on_progress)
+    """Run the experiment ``name`` into ``out_dir/name/``, its cells one after the other in
+    this process; ``on_progress(cells done, cells)``."""
+    from flylog.experiments.parallel import run_plans_serially
+
+    return run_plans_serially([experiment_plan(name, out_dir, options)], on_progress)[0]

@@ -7,23 +7,19 @@ goal without any collision (the robot's footprint never enters an obstacle's).""
 from __future__ import annotations
 
 import dataclasses
-import multiprocessing
-import os
 from collections.abc import Mapping
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
 
 from flylog.config import replace_dotted
+from flylog.experiments.cells import ExperimentCell, ExperimentPlan, log_seconds_work
 from flylog.experiments.closed_loop_plots import Drawn, figures, seed0_flies
 from flylog.experiments.common import (
     Column,
     Count,
     ExperimentOptions,
     ExperimentResult,
-    Progress,
-    Steps,
     Table,
     experiment_dir,
     spread,
@@ -83,14 +79,19 @@ def describe_obstacle(scene, k: int) -> str:
     return f"#{k} ({what}, at x = {where[0]:.1f}, y = {where[1]:.1f})"
 
 
-def run_closed_loop(
-    out_dir: Path,
-    options: ExperimentOptions,
-    *,
-    on_progress: Progress | None = None,
-    planner: Mapping[str, object] | None = None,
-) -> ExperimentResult:
-    """Drive ``options.seeds`` runs on each scene; write ``out_dir/closed-loop/``.
+@dataclasses.dataclass(frozen=True)
+class _Cell:
+    here: Path
+    options: ExperimentOptions
+    overrides: Mapping[str, object]
+    job: _Job
+
+
+def plan_closed_loop(
+    out_dir: Path, options: ExperimentOptions, *, planner: Mapping[str, object] | None = None
+) -> ExperimentPlan:
+    """One cell per scene (and resolution) and seed; the experiment writes
+    ``out_dir/closed-loop/``.
 
     ``planner``: overrides of the planner's defaults (``{"obstacle_weight": 1.0}``: the
     paper's Dirichlet obstacles), applied to every run and listed in the set-up."""
@@ -99,26 +100,56 @@ def run_closed_loop(
     here = experiment_dir(out_dir, NAME)
     overrides = {f"planner.{key}": value for key, value in (planner or {}).items()}
     jobs = _jobs(options)
-    steps = Steps(len(jobs), on_progress)
     scenes = {name: load_scene(options.scene_path(name)) for name in SCENES}
-    done: dict[_Job, tuple[dict, Drawn]] = {}
-    # every run is independent and seeded: run them side by side, one per core
-    workers = min(len(jobs), os.cpu_count() or 1)
-    if workers > 1:
-        # spawn, not fork: a forked child inherits the parent's threads' locks (pytest, I/O)
-        context = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-            futures = {pool.submit(_one_run, here, options, overrides, job): job for job in jobs}
-            for future in as_completed(futures):
-                done[futures[future]] = future.result()
-                steps.step()
-    else:
-        for job in jobs:
-            done[job] = _one_run(here, options, overrides, job)
-            steps.step()
-    runs = [done[job][0] for job in jobs]
+    limit = options.duration_or(TIME_LIMIT)
+    base_pixels = options.resolution[0] * options.resolution[1]
+    cells = tuple(
+        ExperimentCell(
+            NAME,
+            f"{job.group}, seed {job.seed}",
+            # the time limit bounds the loop; the engine runs as the robot is simulated
+            log_seconds_work(
+                limit, 1, pixel_scale=job.resolution[0] * job.resolution[1] / base_pixels
+            ),
+            _run_cell,
+            _Cell(here, options, overrides, job),
+        )
+        for job in jobs
+    )
+
+    def assemble(results: list[tuple[dict, Drawn]]) -> ExperimentResult:
+        return _finish(here, options, overrides, scenes, jobs, results)
+
+    return ExperimentPlan(NAME, cells, assemble)
+
+
+def run_closed_loop(
+    out_dir: Path, options: ExperimentOptions, *, planner: Mapping[str, object] | None = None
+) -> ExperimentResult:
+    """The experiment with ``planner`` overrides (see :func:`plan_closed_loop`), its cells
+    one after the other in this process."""
+    from flylog.experiments.parallel import run_plans_serially
+
+    return run_plans_serially([plan_closed_loop(out_dir, options, planner=planner)])[0]
+
+
+def _run_cell(cell: _Cell) -> tuple[dict, Drawn]:
+    return _one_run(cell.here, cell.options, cell.overrides, cell.job)
+
+
+def _finish(
+    here: Path,
+    options: ExperimentOptions,
+    overrides: Mapping[str, object],
+    scenes: dict,
+    jobs: list[_Job],
+    results: list[tuple[dict, Drawn]],
+) -> ExperimentResult:
+    runs = [row for row, _ in results]
     groups = {job.group: job.scene for job in jobs}
-    drawn = {g: [done[job][1] for job in jobs if job.group == g] for g in groups}
+    drawn = {
+        g: [d for job, (_, d) in zip(jobs, results, strict=True) if job.group == g] for g in groups
+    }
     effective = _config(options, 0, overrides)
     used, heading = effective.planner, effective.heading
     table = _table(runs, groups, options.seeds)

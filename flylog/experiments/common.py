@@ -22,7 +22,8 @@ from flylog.config import param, to_mapping
 from flylog.errors import ConfigError
 from flylog.io.atomic import write_text
 
-SCENES = Path(__file__).resolve().parents[2] / "fixtures" / "scenes"
+CHECKOUT = Path(__file__).resolve().parents[2]
+SCENES = CHECKOUT / "fixtures" / "scenes"
 
 Progress = Callable[[float, float], None]
 
@@ -151,12 +152,20 @@ def _plain(value: Any) -> Any:
     return value
 
 
+def _in_checkout(value: Any) -> Any:
+    if isinstance(value, Path) and value.resolve().is_relative_to(CHECKOUT):
+        return value.resolve().relative_to(CHECKOUT)
+    return value
+
+
 def write_results(
     path: Path, options: ExperimentOptions, table: Table, runs: Sequence[dict[str, Any]]
 ) -> Path:
-    """``results.json``: the options, every run's figures and the table, as plain JSON."""
+    """``results.json``: the options, every run's figures and the table, as plain JSON. A
+    scene directory inside flylog's checkout is written relative to it, so the file is the
+    same wherever the checkout lies."""
     data = {
-        "options": {k: _plain(v) for k, v in to_mapping(options).items()},
+        "options": {k: _plain(_in_checkout(v)) for k, v in to_mapping(options).items()},
         "runs": [{k: _plain(v) for k, v in r.items()} for r in runs],
         "table": [{k: _plain(v) for k, v in r.items()} for r in table.rows],
     }
@@ -169,21 +178,3 @@ def discard_logs(path: Path, options: ExperimentOptions) -> None:
     """Remove ``runs/`` unless the options keep the logs."""
     if not options.keep_logs:
         shutil.rmtree(path / "runs", ignore_errors=True)
-
-
-class Steps:
-    """Counts finished steps for ``on_progress(done, total)``."""
-
-    def __init__(self, total: int, on_progress: Progress | None) -> None:
-        self.total = total
-        self.done = 0
-        self._report = on_progress
-        self.report()
-
-    def report(self) -> None:
-        if self._report is not None:
-            self._report(float(self.done), float(self.total))
-
-    def step(self) -> None:
-        self.done += 1
-        self.report()

@@ -18,19 +18,20 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Iterator
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from flylog.config import replace_dotted
 from flylog.experiments import plots
+from flylog.experiments.cells import ExperimentCell, ExperimentPlan, log_seconds_work
 from flylog.experiments.common import (
     Column,
     Count,
     ExperimentOptions,
     ExperimentResult,
-    Progress,
-    Steps,
     Table,
     experiment_dir,
     spread,
@@ -85,68 +86,104 @@ def mode_configs(
     return modes
 
 
-def run_latency(
-    out_dir: Path, options: ExperimentOptions, *, on_progress: Progress | None = None
-) -> ExperimentResult:
-    """Run the experiment over ``options.seeds`` seeds; write ``out_dir/latency/``."""
-    from flylog.metrics.truth import read_truth
+@dataclass(frozen=True)
+class _Cell:
+    """One seed's log of one scene, replayed in every pipeline of ``modes``."""
+
+    here: Path
+    options: ExperimentOptions
+    scene: str
+    seed: int
+    duration: float
+    modes: dict[str, ReplayConfig]
+
+
+def plan_latency(out_dir: Path, options: ExperimentOptions) -> ExperimentPlan:
+    """One cell per scene and seed; the experiment writes ``out_dir/latency/``."""
     from flylog.scene.load import load_scene
 
     here = experiment_dir(out_dir, NAME)
     turn = load_scene(options.scene_path(TURN))
+    options.scene_path(CORRIDOR)  # a missing scene file fails before any cell runs
     frame_rate = turn.spec.camera.frame_rate
     period_s = 1.0 / frame_rate
     modes = mode_configs(options, frame_rate, SNAPSHOTS_PER_FRAME * frame_rate)
     replay_modes = mode_configs(options, frame_rate, ReplayConfig().snapshot_rate)
-    steps = Steps(options.seeds * 2 * (1 + len(modes)), on_progress)
-    runs: list[dict] = []
+    cells = []
     for seed in range(options.seeds):
-        log = here / "runs" / f"turn_s{seed}.mcap"
-        simulate_scene(options, TURN, seed, log, options.duration_or(TURN_DURATION))
-        rig = read_truth(log).rig
-        visible = first_visible_frames(log, turn, rig)
-        steps.step()
-        for mode, config in modes.items():
-            config = dataclasses.replace(config, seed=seed)
-            run = here / "runs" / f"turn_s{seed}_{_slug(mode)}.mcap"
-            scored = replay_and_score(log, run, config)
-            delays = reaction_delays(run, turn, visible, 1e9 * period_s)
-            detection = [o["latency_s"] / period_s for o in scored.obstacles]
-            seen = [o for o in scored.obstacles if math.isfinite(o["first_visible_s"])]
-            runs.append(
-                {
-                    "scene": TURN,
-                    "mode": mode,
-                    "seed": seed,
-                    "obstacles_visible": len(seen),
-                    "detection_frames": [d for d in detection if math.isfinite(d)],
-                    "entered_view": len(visible),
-                    "reaction_frames": [d for d in delays.values() if math.isfinite(d)],
-                }
-            )
-            steps.step()
-        log = here / "runs" / f"corridor_s{seed}.mcap"
-        duration = options.duration_or(CORRIDOR_DURATION)
-        simulate_scene(options, CORRIDOR, seed, log, duration)
-        steps.step()
-        for mode, config in replay_modes.items():
-            config = dataclasses.replace(config, seed=seed)
-            run = here / "runs" / f"corridor_s{seed}_{_slug(mode)}.mcap"
-            s = replay_and_score(log, run, config).summary
-            runs.append(
-                {
-                    "scene": CORRIDOR,
-                    "mode": mode,
-                    "seed": seed,
-                    **{k: s[k] for k in ("precision", "recall", "f_score", "median_depth_error")},
-                }
-            )
-            steps.step()
-        if not options.keep_logs:  # the logs are large: free the disk seed by seed
-            for path in (here / "runs").iterdir():
-                path.unlink()
-    table = _table(runs, list(modes), options.seeds)
-    figures = _figures(here, table, runs, list(modes))
+        for scene, duration, configs in (
+            (TURN, options.duration_or(TURN_DURATION), modes),
+            (CORRIDOR, options.duration_or(CORRIDOR_DURATION), replay_modes),
+        ):
+            task = _Cell(here, options, scene, seed, duration, configs)
+            work = log_seconds_work(duration, len(configs))
+            cells.append(ExperimentCell(NAME, f"{scene}, seed {seed}", work, _run_cell, task))
+
+    def assemble(results: list[list[dict]]) -> ExperimentResult:
+        runs = [run for rows in results for run in rows]
+        return _finish(here, options, runs, list(modes), frame_rate, period_s)
+
+    return ExperimentPlan(NAME, tuple(cells), assemble)
+
+
+def _run_cell(task: _Cell) -> list[dict]:
+    """The cell's rows, one per pipeline (its logs are deleted unless kept)."""
+    here, seed = task.here, task.seed
+    log = here / "runs" / f"{task.scene}_s{seed}.mcap"
+    simulate_scene(task.options, task.scene, seed, log, task.duration)
+    made = [log]
+    rows = []
+    measure = _turn_rows if task.scene == TURN else _corridor_rows
+    for mode, row, run in measure(task, log):
+        made.append(run)
+        rows.append({"scene": task.scene, "mode": mode, "seed": seed, **row})
+    if not task.options.keep_logs:  # the logs are large: free the disk cell by cell
+        for path in made:
+            path.unlink()
+    return rows
+
+
+def _turn_rows(task: _Cell, log: Path) -> Iterator[tuple[str, dict, Path]]:
+    from flylog.metrics.truth import read_truth
+    from flylog.scene.load import load_scene
+
+    turn = load_scene(task.options.scene_path(TURN))
+    period_s = 1.0 / turn.spec.camera.frame_rate
+    visible = first_visible_frames(log, turn, read_truth(log).rig)
+    for mode, config in task.modes.items():
+        config = dataclasses.replace(config, seed=task.seed)
+        run = task.here / "runs" / f"turn_s{task.seed}_{_slug(mode)}.mcap"
+        scored = replay_and_score(log, run, config)
+        delays = reaction_delays(run, turn, visible, 1e9 * period_s)
+        detection = [o["latency_s"] / period_s for o in scored.obstacles]
+        seen = [o for o in scored.obstacles if math.isfinite(o["first_visible_s"])]
+        row = {
+            "obstacles_visible": len(seen),
+            "detection_frames": [d for d in detection if math.isfinite(d)],
+            "entered_view": len(visible),
+            "reaction_frames": [d for d in delays.values() if math.isfinite(d)],
+        }
+        yield mode, row, run
+
+
+def _corridor_rows(task: _Cell, log: Path) -> Iterator[tuple[str, dict, Path]]:
+    for mode, config in task.modes.items():
+        config = dataclasses.replace(config, seed=task.seed)
+        run = task.here / "runs" / f"corridor_s{task.seed}_{_slug(mode)}.mcap"
+        s = replay_and_score(log, run, config).summary
+        yield mode, {k: s[k] for k in ("precision", "recall", "f_score", "median_depth_error")}, run
+
+
+def _finish(
+    here: Path,
+    options: ExperimentOptions,
+    runs: list[dict],
+    modes: list[str],
+    frame_rate: float,
+    period_s: float,
+) -> ExperimentResult:
+    table = _table(runs, modes, options.seeds)
+    figures = _figures(here, table, runs, modes)
     findings = _findings(table)
     setup = [
         f"`{TURN}` ({options.duration_or(TURN_DURATION):g} s) and `{CORRIDOR}` "

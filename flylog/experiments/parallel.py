@@ -1,21 +1,73 @@
-"""Several experiments at once on the sweep's process pool (``flylog.sweep.executors``):
-each experiment is one task, run whole in one worker (its seeds one after the other, as
-:func:`flylog.experiments.run_experiment` runs them), so ``flylog experiment all`` keeps
-every core busy. Every run is on the virtual clock and seeded: an experiment's results do
-not depend on the process or the numba thread count it ran with."""
+"""Experiments on the sweep's process pool (``flylog.sweep.executors``): the cells of every
+experiment asked for go to ONE pool, the longest first (``flylog.sweep.order``), each
+worker with cores / workers numba threads; each experiment is assembled from its cells'
+results in its plan's order, so its outputs do not depend on the worker count or on the
+order in which cells finish."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
-from flylog.experiments import run_experiment
-from flylog.experiments.common import ExperimentOptions, ExperimentResult
+from flylog.experiments.cells import ExperimentPlan, finish_in_order, run_cell
+from flylog.experiments.common import ExperimentOptions, ExperimentResult, Progress
 
 
-def _run_one(task: tuple[str, Path, ExperimentOptions]) -> ExperimentResult:
-    name, out_dir, options = task
-    return run_experiment(name, out_dir, options)
+def run_plans_serially(
+    plans: Sequence[ExperimentPlan], on_progress: Progress | None = None
+) -> list[ExperimentResult]:
+    """Run every cell in this process, one after the other, in the plans' order."""
+    total = sum(len(p.cells) for p in plans)
+    done = 0
+    if on_progress is not None:
+        on_progress(0.0, float(total))
+    out = []
+    for plan in plans:
+        results = []
+        for cell in plan.cells:
+            results.append(run_cell(cell))
+            done += 1
+            if on_progress is not None:
+                on_progress(float(done), float(total))
+        out.append(finish_in_order(plan, results))
+    return out
+
+
+def run_plans(
+    plans: Sequence[ExperimentPlan],
+    *,
+    workers: int,
+    on_progress: Progress | None = None,
+) -> list[ExperimentResult]:
+    """Run the cells of ``plans`` on a pool of ``workers`` processes (at most one per cell),
+    the longest first; the plans' results in their order. ``on_progress(cells done, cells)``
+    as cells finish; an experiment is assembled as soon as its last cell is in."""
+    from flylog.sweep.executors import ProcessPool, default_workers
+    from flylog.sweep.order import longest_first_order
+
+    cells = [(k, i, cell) for k, plan in enumerate(plans) for i, cell in enumerate(plan.cells)]
+    order = [cells[j] for j in longest_first_order([cell.work for _, _, cell in cells])]
+    results: list[dict[int, Any]] = [{} for _ in plans]
+    finished: dict[int, ExperimentResult] = {}
+    if on_progress is not None:
+        on_progress(0.0, float(len(cells)))
+    workers = max(1, min(workers, len(cells)))
+    pool = ProcessPool(workers, numba_threads=max(1, default_workers() // workers))
+    try:
+        for done, (j, result) in enumerate(
+            pool.map_unordered(run_cell, [cell for _, _, cell in order]), start=1
+        ):
+            k, i, _ = order[j]
+            results[k][i] = result
+            plan = plans[k]
+            if len(results[k]) == len(plan.cells):
+                finished[k] = finish_in_order(plan, [results[k][n] for n in range(len(plan.cells))])
+            if on_progress is not None:
+                on_progress(float(done), float(len(cells)))
+    finally:
+        pool.close()
+    return [finished[k] for k in range(len(plans))]
 
 
 def run_experiments(
@@ -24,29 +76,11 @@ def run_experiments(
     options: ExperimentOptions,
     *,
     workers: int,
-    on_done: Callable[[ExperimentResult, int, int], None] | None = None,
+    on_progress: Progress | None = None,
 ) -> list[ExperimentResult]:
-    """Run ``names`` on ``workers`` processes (each with cores / workers numba threads);
-    their results in the order of ``names``. ``on_done(result, done, total)`` as each
-    ends. The experiments start in the order given: name the longest first."""
-    from flylog.sweep.executors import ProcessPool, default_workers
+    """Run the experiments ``names`` into ``out_dir/NAME/`` on ``workers`` processes; their
+    results in the order of ``names``. ``on_progress(cells done, cells)``."""
+    from flylog.experiments import experiment_plan
 
-    workers = max(1, min(workers, len(names)))
-    pool = ProcessPool(workers, numba_threads=max(1, default_workers() // workers))
-    results: dict[int, ExperimentResult] = {}
-    try:
-        tasks = [(name, Path(out_dir), options) for name in names]
-        for i, result in pool.map_unordered(_run_one, tasks):
-            results[i] = result
-            if on_done is not None:
-                on_done(result, len(results), len(names))
-    finally:
-        pool.close()
-    return [results[i] for i in range(len(names))]
-
-
-# Every experiment, the longest first, by the log time it simulates and replays per seed at
-# its defaults: closed-loop up to 2 × 180 s of closed loop; latency 4 × 8 s on turn and
-# 4 × 30 s on corridor (152 s); proprioception 3 × 8 s (24 s); sonar 3 × 5 s (15 s). With
-# fewer workers than experiments the longest starts at once.
-LONGEST_FIRST = ("closed-loop", "latency", "proprioception", "sonar")
+    plans = [experiment_plan(name, Path(out_dir), options) for name in names]
+    return run_plans(plans, workers=workers, on_progress=on_progress)

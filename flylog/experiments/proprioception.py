@@ -4,17 +4,17 @@ inverse of the odometric motion, without it the flies must re-converge after eac
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from flylog.experiments import plots
+from flylog.experiments.cells import ExperimentCell, ExperimentPlan, log_seconds_work
 from flylog.experiments.common import (
     Column,
     ExperimentOptions,
     ExperimentResult,
-    Progress,
-    Steps,
     Table,
     experiment_dir,
     spread,
@@ -31,6 +31,7 @@ from flylog.experiments.runs import (
     true_poses_at,
     with_flies,
 )
+from flylog.geometry import StereoRig
 
 NAME = "proprioception"
 SCENE = "turn"
@@ -38,51 +39,101 @@ FRAME_STEP = 5  # frames N and N + 5, as the paper's figures
 CONFIGS = {"with proprioception": True, "without proprioception": False}
 
 
-def run_proprioception(
-    out_dir: Path, options: ExperimentOptions, *, on_progress: Progress | None = None
-) -> ExperimentResult:
-    """Run the experiment over ``options.seeds`` seeds; write ``out_dir/proprioception/``."""
+@dataclass(frozen=True)
+class _Seed:
+    """A cell: one seed's log, replayed with and without proprioception."""
+
+    here: Path
+    options: ExperimentOptions
+    seed: int
+    duration: float
+    frame_rate: float
+
+
+@dataclass(frozen=True)
+class _Drawn:
+    """What the figures need of seed 0, kept after its logs are deleted."""
+
+    rig: StereoRig
+    frame: int  # frame N
+    frames: tuple[plots.FramePanel, ...]
+    maps: tuple[plots.MapPanel, ...]
+
+
+@dataclass(frozen=True)
+class _SeedResult:
+    runs: tuple[dict, ...]  # one per configuration
+    curves: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]  # t, precision, recall
+    drawn: _Drawn | None  # seed 0 only
+
+
+def plan_proprioception(out_dir: Path, options: ExperimentOptions) -> ExperimentPlan:
+    """One cell per seed; the experiment writes ``out_dir/proprioception/``."""
     from flylog.scene.load import load_scene
 
     here = experiment_dir(out_dir, NAME)
     scene = load_scene(options.scene_path(SCENE))
     duration = options.duration_or(scene.spec.duration or 8.0)
     frame_rate = scene.spec.camera.frame_rate
-    steps = Steps(options.seeds * (1 + len(CONFIGS)), on_progress)
+    cells = tuple(
+        ExperimentCell(
+            NAME,
+            f"{SCENE}, seed {seed}",
+            log_seconds_work(duration, len(CONFIGS)),
+            _run_seed,
+            _Seed(here, options, seed, duration, frame_rate),
+        )
+        for seed in range(options.seeds)
+    )
+
+    def assemble(results: list[_SeedResult]) -> ExperimentResult:
+        return _finish(here, options, scene, duration, frame_rate, results)
+
+    return ExperimentPlan(NAME, cells, assemble)
+
+
+def _run_seed(task: _Seed) -> _SeedResult:
+    here, options, seed = task.here, task.options, task.seed
+    log = simulate_scene(options, SCENE, seed, here / "runs" / f"turn_s{seed}.mcap", task.duration)
     runs: list[dict] = []
+    curves: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
     first: dict[str, ScoredRun] = {}
-    curves: dict[str, list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {c: [] for c in CONFIGS}
-    for seed in range(options.seeds):
-        log = simulate_scene(options, SCENE, seed, here / "runs" / f"turn_s{seed}.mcap", duration)
-        steps.step()
-        for label, on in CONFIGS.items():
-            config = with_flies(
-                one_generation_per_frame(seed, frame_rate, {"proprioception": on}), options
-            )
-            tag = "on" if on else "off"
-            scored = replay_and_score(log, here / "runs" / f"turn_s{seed}_{tag}.mcap", config)
-            s = scored.summary
-            runs.append(
-                {
-                    "configuration": label,
-                    "seed": seed,
-                    **{k: s[k] for k in _SUMMARY_KEYS},
-                }
-            )
-            t = np.array([r["t_s"] for r in scored.snapshots])
-            curves[label].append(
-                (
-                    t,
-                    np.array([r["precision"] for r in scored.snapshots]),
-                    np.array([r["recall"] for r in scored.snapshots]),
-                )
-            )
-            if seed == 0:
-                first[label] = scored
-            steps.step()
+    for label, on in CONFIGS.items():
+        config = with_flies(
+            one_generation_per_frame(seed, task.frame_rate, {"proprioception": on}), options
+        )
+        tag = "on" if on else "off"
+        scored = replay_and_score(log, here / "runs" / f"turn_s{seed}_{tag}.mcap", config)
+        s = scored.summary
+        runs.append({"configuration": label, "seed": seed, **{k: s[k] for k in _SUMMARY_KEYS}})
+        curves[label] = (
+            np.array([r["t_s"] for r in scored.snapshots]),
+            np.array([r["precision"] for r in scored.snapshots]),
+            np.array([r["recall"] for r in scored.snapshots]),
+        )
+        first[label] = scored
+    drawn = _drawn(first, log, task.duration, task.frame_rate) if seed == 0 else None
+    if not options.keep_logs:
+        for scored in first.values():
+            scored.run.unlink()
+        log.unlink()
+    return _SeedResult(tuple(runs), curves, drawn)
+
+
+def _finish(
+    here: Path,
+    options: ExperimentOptions,
+    scene,
+    duration: float,
+    frame_rate: float,
+    results: list[_SeedResult],
+) -> ExperimentResult:
+    runs = [run for r in results for run in r.runs]
+    curves = {c: [r.curves[c] for r in results] for c in CONFIGS}
     table = _table(runs, options.seeds)
-    log0 = here / "runs" / "turn_s0.mcap"
-    figures = _figures(here, scene, first, log0, duration, frame_rate, curves)
+    drawn = results[0].drawn
+    assert drawn is not None  # seed 0 is the first cell
+    figures = _figures(here, scene, drawn, curves)
     findings = _findings(table)
     setup = [
         f"scene `{SCENE}` ({duration:g} s, the robot turns 1° right per frame at "
@@ -156,15 +207,8 @@ def _findings(table: Table) -> list[str]:
     return out
 
 
-def _figures(
-    here: Path,
-    scene,
-    first: dict[str, ScoredRun],
-    log: Path,
-    duration: float,
-    frame_rate: float,
-    curves: dict[str, list[tuple[np.ndarray, np.ndarray, np.ndarray]]],
-) -> list[tuple[Path, str]]:
+def _drawn(first: dict[str, ScoredRun], log: Path, duration: float, frame_rate: float) -> _Drawn:
+    """Seed 0's frames N and N + FRAME_STEP with the obstacle flies, and its map panels."""
     from flylog.metrics.truth import read_truth
 
     rig = read_truth(log).rig
@@ -195,6 +239,16 @@ def _figures(
                     extent=(-1.0, 7.0, -4.5, 3.5),
                 )
             )
+    return _Drawn(rig, n, tuple(frames), tuple(maps))
+
+
+def _figures(
+    here: Path,
+    scene,
+    drawn: _Drawn,
+    curves: dict[str, list[tuple[np.ndarray, np.ndarray, np.ndarray]]],
+) -> list[tuple[Path, str]]:
+    rig, n, frames, maps = drawn.rig, drawn.frame, list(drawn.frames), list(drawn.maps)
     out = [
         (
             plots.frames_figure(here / "frames.png", frames),

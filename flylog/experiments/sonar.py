@@ -8,18 +8,18 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from flylog.experiments import plots
+from flylog.experiments.cells import ExperimentCell, ExperimentPlan, log_seconds_work
 from flylog.experiments.common import (
     Column,
     Count,
     ExperimentOptions,
     ExperimentResult,
-    Progress,
-    Steps,
     Table,
     experiment_dir,
     spread,
@@ -35,6 +35,7 @@ from flylog.experiments.runs import (
     true_poses_at,
     with_flies,
 )
+from flylog.geometry import StereoRig
 
 NAME = "sonar"
 SCENE = "near-obstacle"
@@ -83,51 +84,111 @@ def post_counts(
     return (times - times[0]) / 1e9, np.array(on, float), np.array([len(c) for c in clouds], float)
 
 
-def run_sonar(
-    out_dir: Path, options: ExperimentOptions, *, on_progress: Progress | None = None
-) -> ExperimentResult:
-    """Run the experiment over ``options.seeds`` seeds; write ``out_dir/sonar/``."""
+@dataclass(frozen=True)
+class _Seed:
+    """A cell: one seed's log, replayed with and without sonar fusion."""
+
+    here: Path
+    options: ExperimentOptions
+    seed: int
+    duration: float
+    frame_rate: float
+
+
+@dataclass(frozen=True)
+class _Drawn:
+    """What the figures need of seed 0, kept after its logs are deleted."""
+
+    rig: StereoRig
+    maps: tuple[plots.MapPanel, ...]
+    frames: tuple[plots.FramePanel, ...]
+
+
+@dataclass(frozen=True)
+class _SeedResult:
+    runs: tuple[dict, ...]  # one per configuration
+    curves: dict[str, tuple[np.ndarray, np.ndarray]]  # t, obstacle flies on the post
+    drawn: _Drawn | None  # seed 0 only
+
+
+def plan_sonar(out_dir: Path, options: ExperimentOptions) -> ExperimentPlan:
+    """One cell per seed; the experiment writes ``out_dir/sonar/``."""
     from flylog.scene.load import load_scene
 
     here = experiment_dir(out_dir, NAME)
     scene = load_scene(options.scene_path(SCENE))
-    post = nearest_obstacle(scene)
     duration = options.duration_or(scene.spec.duration or 5.0)
     frame_rate = scene.spec.camera.frame_rate
-    steps = Steps(options.seeds * (1 + len(CONFIGS)), on_progress)
+    cells = tuple(
+        ExperimentCell(
+            NAME,
+            f"{SCENE}, seed {seed}",
+            log_seconds_work(duration, len(CONFIGS)),
+            _run_seed,
+            _Seed(here, options, seed, duration, frame_rate),
+        )
+        for seed in range(options.seeds)
+    )
+
+    def assemble(results: list[_SeedResult]) -> ExperimentResult:
+        return _finish(here, options, scene, duration, results)
+
+    return ExperimentPlan(NAME, cells, assemble)
+
+
+def _run_seed(task: _Seed) -> _SeedResult:
+    from flylog.scene.load import load_scene
+
+    here, options, seed = task.here, task.options, task.seed
+    scene = load_scene(options.scene_path(SCENE))
+    post = nearest_obstacle(scene)
+    log = simulate_scene(options, SCENE, seed, here / "runs" / f"near_s{seed}.mcap", task.duration)
     runs: list[dict] = []
-    curves: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {c: [] for c in CONFIGS}
-    for seed in range(options.seeds):
-        log = simulate_scene(options, SCENE, seed, here / "runs" / f"near_s{seed}.mcap", duration)
-        steps.step()
-        for label, on in CONFIGS.items():
-            config = with_flies(
-                one_generation_per_frame(
-                    seed, frame_rate, {"sonar_fitness": on, "sonar_immigration": on}
-                ),
-                options,
-            )
-            run = here / "runs" / f"near_s{seed}_{'on' if on else 'off'}.mcap"
-            scored = replay_and_score(log, run, config)
-            t, on_post, total = post_counts(scene, post, run, log)
-            curves[label].append((t, on_post))
-            row = scored.obstacles[post]
-            share = on_post / np.maximum(total, 1.0)
-            runs.append(
-                {
-                    "configuration": label,
-                    "seed": seed,
-                    "post_flies_median": float(np.median(on_post)) if len(on_post) else math.nan,
-                    "post_share_median": float(np.median(share)) if len(share) else math.nan,
-                    "post_detected": bool(math.isfinite(row["first_detected_s"])),
-                    "post_latency_s": row["latency_s"],
-                    "precision": scored.summary["precision"],
-                    "recall": scored.summary["recall"],
-                }
-            )
-            steps.step()
+    curves: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    replays: list[Path] = []
+    for label, on in CONFIGS.items():
+        config = with_flies(
+            one_generation_per_frame(
+                seed, task.frame_rate, {"sonar_fitness": on, "sonar_immigration": on}
+            ),
+            options,
+        )
+        run = here / "runs" / f"near_s{seed}_{'on' if on else 'off'}.mcap"
+        replays.append(run)
+        scored = replay_and_score(log, run, config)
+        t, on_post, total = post_counts(scene, post, run, log)
+        curves[label] = (t, on_post)
+        row = scored.obstacles[post]
+        share = on_post / np.maximum(total, 1.0)
+        runs.append(
+            {
+                "configuration": label,
+                "seed": seed,
+                "post_flies_median": float(np.median(on_post)) if len(on_post) else math.nan,
+                "post_share_median": float(np.median(share)) if len(share) else math.nan,
+                "post_detected": bool(math.isfinite(row["first_detected_s"])),
+                "post_latency_s": row["latency_s"],
+                "precision": scored.summary["precision"],
+                "recall": scored.summary["recall"],
+            }
+        )
+    drawn = _drawn(here, log, task.duration) if seed == 0 else None
+    if not options.keep_logs:
+        for path in (*replays, log):
+            path.unlink()
+    return _SeedResult(tuple(runs), curves, drawn)
+
+
+def _finish(
+    here: Path, options: ExperimentOptions, scene, duration: float, results: list[_SeedResult]
+) -> ExperimentResult:
+    post = nearest_obstacle(scene)
+    runs = [run for r in results for run in r.runs]
+    curves = {c: [r.curves[c] for r in results] for c in CONFIGS}
     table = _table(runs, options.seeds)
-    figures = _figures(here, scene, post, here / "runs" / "near_s0.mcap", duration, curves)
+    drawn = results[0].drawn
+    assert drawn is not None  # seed 0 is the first cell
+    figures = _figures(here, scene, drawn, curves)
     findings = [
         f"{r['configuration']}: post detected on {r['post_detected'].k} of "
         f"{r['post_detected'].n} seeds, median {r['post_flies'].mean:.1f} obstacle flies on it"
@@ -185,14 +246,8 @@ def _table(runs: list[dict], seeds: int) -> Table:
     return Table(f"The near post on `{SCENE}` over {seeds} seeds", columns, tuple(rows))
 
 
-def _figures(
-    here: Path,
-    scene,
-    post: int,
-    log: Path,
-    duration: float,
-    curves: dict[str, list[tuple[np.ndarray, np.ndarray]]],
-) -> list[tuple[Path, str]]:
+def _drawn(here: Path, log: Path, duration: float) -> _Drawn:
+    """Seed 0's obstacle flies at 0.6 of the run, on the map and on the left frame."""
     from flylog.metrics.truth import read_truth
 
     rig = read_truth(log).rig
@@ -217,6 +272,16 @@ def _figures(
         u, _, v, _ = rig.project(clouds[i]) if len(clouds[i]) else (np.empty(0),) * 4
         ok = (u >= 0) & (u < rig.width) & (v >= 0) & (v < rig.height)
         frames.append(plots.FramePanel(f"{label}, t = {t_s:.1f} s", image, np.c_[u[ok], v[ok]]))
+    return _Drawn(rig, tuple(maps), tuple(frames))
+
+
+def _figures(
+    here: Path,
+    scene,
+    drawn: _Drawn,
+    curves: dict[str, list[tuple[np.ndarray, np.ndarray]]],
+) -> list[tuple[Path, str]]:
+    rig, maps, frames = drawn.rig, list(drawn.maps), list(drawn.frames)
     out: list[tuple[Path, str]] = []
     if maps:
         out.append(

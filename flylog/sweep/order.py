@@ -56,8 +56,11 @@ def estimated_work(cells: Sequence[Cell]) -> list[float]:
     return out
 
 
+def longest_first_order(work: Sequence[float]) -> list[int]:
+    """Indices of ``work`` (estimates), the largest first; ties keep their order."""
+    return sorted(range(len(work)), key=lambda i: -work[i])
+
+
 def longest_first(cells: Sequence[Cell]) -> list[Cell]:
     """``cells`` by estimated work, the largest first; ties keep their order."""
-    work = estimated_work(cells)
-    order = sorted(range(len(cells)), key=lambda i: -work[i])
-    return [cells[i] for i in order]
+    return [cells[i] for i in longest_first_order(estimated_work(cells))]

@@ -1,6 +1,8 @@
 """Once per worker process: numba's thread count, and its compiled kernels loaded from the
-on-disk cache (or compiled into it) by a tiny closed-loop run, so that no cell's wall time
-pays for them and two cells in one worker do not load them twice."""
+on-disk cache (or compiled into it) by a tiny closed-loop run and a replay of its log, so
+that no cell's wall time pays for them and two cells in one worker do not load them twice.
+Both are needed: numba compiles a kernel once per argument types, and a replay's images,
+read from the log, are read-only arrays where the closed loop's rendered ones are not."""
 
 from __future__ import annotations
 
@@ -8,8 +10,10 @@ import functools
 import tempfile
 from pathlib import Path
 
-# A closed loop of 0.2 s at 48x36 px through a scene with each kind of obstacle, scored by
-# the metrics: it calls every kernel a cell calls (renderer, sonar, engine, planner, truth).
+# A closed loop of 0.2 s at 48x36 px through a scene with each kind of obstacle, then a
+# replay of its log, both scored by the metrics: together they call every kernel a sweep's
+# or an experiment's cell calls (renderer, sonar, engine, planner, truth; checked by
+# tests/sweep/test_warm.py).
 _WARM_SCENE = """
 name = "warm-up"
 duration = 0.2
@@ -40,8 +44,8 @@ _WARM_FLIES = 64
 
 @functools.cache
 def warm_up(numba_threads: int) -> float:
-    """Set numba's threads for this process and run the tiny closed loop (once per process
-    and thread count); its wall time, s."""
+    """Set numba's threads for this process and run the tiny closed loop and replay (once per
+    process and thread count); their wall time, s."""
     import time
 
     import numba
@@ -51,6 +55,7 @@ def warm_up(numba_threads: int) -> float:
     from flylog.metrics.score import score_run
     from flylog.replay.closed_loop import PlannerDriver
     from flylog.replay.config import ReplayConfig
+    from flylog.replay.run import replay
     from flylog.scene.load import parse_scene
     from flylog.sim.run import SimulationOptions, simulate
 
@@ -68,4 +73,7 @@ def warm_up(numba_threads: int) -> float:
         options = SimulationOptions(resolution=_WARM_RESOLUTION)
         simulate(scene, log, options, make_driver=make_driver)
         score_run(log, log, MetricsConfig())
+        run = Path(tmp) / "replay.mcap"
+        replay(log, run, config)
+        score_run(run, log, MetricsConfig())
     return time.perf_counter() - t0

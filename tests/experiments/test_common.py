@@ -66,6 +66,10 @@ def test_results_json_holds_plain_numbers(tmp_path):
     assert data["table"] == [{"x": {"mean": 1.0, "std": 0.5, "n": 2}, "k": {"k": 1, "n": 2}}]
     assert data["options"]["seeds"] == 2
     assert data["options"]["resolution"] == [320, 240]
+    assert data["options"]["scenes"] == "fixtures/scenes"  # wherever the checkout lies
+    elsewhere = ExperimentOptions(scenes=tmp_path)
+    data = json.loads(write_results(tmp_path, elsewhere, table, runs).read_text())
+    assert data["options"]["scenes"] == str(tmp_path)
 
 
 def test_options_reject_tiny_images_and_unknown_scenes(tmp_path):

@@ -1,34 +1,89 @@
-"""Experiments run at once in the sweep's process pool give what they give one after the
-other in this process (virtual clock, seeded runs)."""
+"""The experiments' cells on the sweep's process pool write, byte for byte, the same files
+on one worker and on two (virtual clock, seeded runs); and their rows are those of the
+per-seed functions called directly in this process."""
 
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
-from flylog.experiments import EXPERIMENTS, run_experiment
-from flylog.experiments.common import ExperimentOptions
-from flylog.experiments.parallel import LONGEST_FIRST, run_experiments
+import pytest
 
-TINY = ExperimentOptions(seeds=1, resolution=(48, 36), duration=0.4, flies=64)
+from flylog.experiments import experiment_plan, proprioception, sonar
+from flylog.experiments.cells import ExperimentCell, run_cell
+from flylog.experiments.common import ExperimentOptions
+from flylog.experiments.parallel import run_experiments
+from flylog.sweep.order import longest_first_order
+
+TINY = ExperimentOptions(seeds=2, resolution=(48, 36), duration=0.4, flies=64)
 NAMES = ["sonar", "proprioception"]
 
 
-def test_two_experiments_at_once_equal_them_one_after_the_other(tmp_path: Path) -> None:
-    done: list[tuple[str, int, int]] = []
-    parallel = run_experiments(
-        NAMES, tmp_path / "pool", TINY, workers=2,
-        on_done=lambda r, d, t: done.append((r.name, d, t)),
-    )  # fmt: skip
-    assert [r.name for r in parallel] == NAMES
-    assert sorted(d for _, d, _ in done) == [1, 2] and {n for n, _, t in done} == set(NAMES)
-    for name, got in zip(NAMES, parallel, strict=True):
-        alone = run_experiment(name, tmp_path / "serial", TINY)
-        assert len(got.runs) == len(alone.runs) == 2  # two configurations, one seed
-        pool_json = json.loads((tmp_path / "pool" / name / "results.json").read_text())
-        serial_json = json.loads((tmp_path / "serial" / name / "results.json").read_text())
-        assert pool_json == serial_json  # every run's figures (NaN as null), the table
+def _json_numbers(row: dict) -> dict:
+    """A row as results.json holds it: NaN as null."""
+    return {k: None if isinstance(v, float) and math.isnan(v) else v for k, v in row.items()}
 
 
-def test_every_experiment_has_its_place_in_the_order() -> None:
-    assert sorted(LONGEST_FIRST) == sorted(EXPERIMENTS)
+def _outputs(directory: Path) -> dict[str, bytes]:
+    return {
+        str(p.relative_to(directory)): p.read_bytes()
+        for p in sorted(directory.rglob("*"))
+        if p.is_file()
+    }
+
+
+PROGRESS: list[tuple[float, float]] = []
+
+
+@pytest.fixture(scope="module")
+def written(tmp_path_factory) -> dict[str, Path]:
+    out = {}
+    for workers in (1, 2):
+        out[f"pool of {workers}"] = tmp_path_factory.mktemp(f"pool{workers}")
+        run_experiments(
+            NAMES, out[f"pool of {workers}"], TINY, workers=workers,
+            on_progress=(lambda d, t: PROGRESS.append((d, t))) if workers == 2 else None,
+        )  # fmt: skip
+    return out
+
+
+def test_every_worker_count_writes_the_same_bytes(written: dict[str, Path]) -> None:
+    one = _outputs(written["pool of 1"])
+    assert sorted(one) == sorted(
+        f"{name}/{file}"
+        for name in NAMES
+        for file in ("curves.png", "frames.png", "map.png", "results.json", "summary.md")
+    )
+    assert _outputs(written["pool of 2"]) == one
+
+
+def test_rows_are_those_of_the_per_seed_functions(written: dict[str, Path], tmp_path) -> None:
+    """Each seed's cell function called directly gives the rows results.json holds."""
+    for module, name in ((sonar, "sonar"), (proprioception, "proprioception")):
+        plan = experiment_plan(name, tmp_path, TINY)
+        direct = []
+        for seed, cell in enumerate(plan.cells):
+            assert cell.task.seed == seed
+            direct += module._run_seed(cell.task).runs
+        saved = json.loads((written["pool of 2"] / name / "results.json").read_text())
+        assert [(r["configuration"], r["seed"]) for r in saved["runs"]] == [
+            (c, s) for s in range(TINY.seeds) for c in module.CONFIGS
+        ]
+        assert [_json_numbers(r) for r in direct] == saved["runs"]
+
+
+def test_progress_counts_the_cells_of_every_experiment(written: dict[str, Path]) -> None:
+    cells = 2 * TINY.seeds  # one per seed of each experiment
+    assert [(float(d), float(cells)) for d in range(cells + 1)] == PROGRESS
+
+
+def test_cells_go_out_longest_first_ties_in_order() -> None:
+    assert longest_first_order([1.0, 3.0, 2.0, 3.0]) == [1, 3, 2, 0]
+
+
+def test_an_error_in_a_cell_names_the_experiment_and_the_cell() -> None:
+    cell = ExperimentCell("sonar", "near-obstacle, seed 3", 1.0, math.sqrt, -1.0)
+    with pytest.raises(ValueError, match="math domain error") as caught:
+        run_cell(cell)
+    assert caught.value.__notes__ == ["in the sonar experiment's cell near-obstacle, seed 3"]
