@@ -18,6 +18,9 @@ from rich.progress import (
 )
 from rich.text import Text
 
+# Units that count whole things show whole numbers; the others (seconds of log) one decimal.
+COUNTED_UNITS = frozenset({"frames", "cells", "logs"})
+
 
 class AmountColumn(ProgressColumn):
     """``done/total unit`` with one decimal; ``?`` for a total not known yet (a task's
@@ -37,7 +40,7 @@ def drawn_progress_bar(
     description: str, unit: str, console: Console
 ) -> Iterator[Callable[[float, float], None]]:
     """``flylog.cli.common.progress_bar`` on a terminal."""
-    count = MofNCompleteColumn() if unit == "frames" else AmountColumn(unit)
+    count = MofNCompleteColumn() if unit in COUNTED_UNITS else AmountColumn(unit)
     columns = (
         TextColumn("[bold]{task.description}"),
         BarColumn(),
