@@ -35,7 +35,7 @@ FRACTION = 1 << FRACTION_BITS
 
 # Bits of the ``measure`` integer the compiled kernels take (measure_code).
 GY_BIT = 1  # the Sobel norm² includes gy²
-NCC_BIT = 2  # the similarity is ZNCC (else ZSSD)
+NCC_BIT = 2  # the kernels sum ZNCC's terms (cov, vl, vr; else ZSSD's)
 SUBPIXEL_BIT = 4  # the right window is sampled at the exact right projection
 
 
@@ -50,8 +50,12 @@ def measure_code(
 ) -> int:
     """The ``measure`` integer the compiled kernels take: :data:`GY_BIT` for the paper's
     Sobel norm, :data:`NCC_BIT` for ZNCC, :data:`SUBPIXEL_BIT` for sub-pixel sampling."""
-    ncc = Similarity(similarity) is Similarity.ZNCC
-    return gy_weight(gradient) * GY_BIT + (NCC_BIT if ncc else 0) + (SUBPIXEL_BIT * subpixel)
+    return gy_weight(gradient) * GY_BIT + similarity_bits(similarity) + SUBPIXEL_BIT * subpixel
+
+
+def similarity_bits(similarity: Similarity) -> int:
+    """The bits of :func:`measure_code` that choose the dissimilarity."""
+    return NCC_BIT if Similarity(similarity) is Similarity.ZNCC else 0
 
 
 def as_planes(image: np.ndarray) -> np.ndarray:
@@ -213,6 +217,22 @@ def zncc_of(cov, vl, vr):  # pragma: no cover - compiled
     """ZNCC from the integer sums (0 when either patch is flat)."""
     product = float(vl) * float(vr)
     return cov / np.sqrt(product) if product > 0.0 else 0.0
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def ncc_unlike(cov, vl, vr, n, ncc_scale, measure):  # pragma: no cover - compiled
+    """The dissimilarity from ZNCC's sums (integers or floats) of an n-pixel window, for the
+    ``measure`` of :func:`measure_code`: ``ncc_scale·(1 − ZNCC)``. Same arithmetic as
+    :func:`ncc_unlike_numpy`."""
+    return ncc_scale * (1.0 - zncc_of(cov, vl, vr))
+
+
+def ncc_unlike_numpy(cov, vl, vr, n: int, ncc_scale: float, measure: int) -> np.ndarray:
+    """Reference: :func:`ncc_unlike` of arrays."""
+    product = np.asarray(vl).astype(np.float64) * np.asarray(vr).astype(np.float64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        zncc = np.where(product > 0.0, cov / np.sqrt(product), 0.0)
+    return ncc_scale * (1.0 - zncc)
 
 
 def zncc_numpy(patch_l: np.ndarray, patch_r: np.ndarray) -> np.ndarray:
