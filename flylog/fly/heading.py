@@ -44,7 +44,6 @@ from flylog.fly.config import Similarity
 from flylog.fly.fitness import as_planes, rig_constants
 from flylog.fly.fitness_terms import (
     NCC_BIT,
-    NCC_SCALE,
     ncc_unlike,
     ncc_unlike_numpy,
     similarity_bits,
@@ -199,7 +198,7 @@ def patch_dissimilarity_numpy(a: np.ndarray, b: np.ndarray, channels: int, measu
         cov += n * sab - sa * sb
         vl += n * saa - sa * sa
         vr += n * sbb - sb * sb
-    return ncc_unlike_numpy(cov, vl, vr, n, NCC_SCALE * size, measure)
+    return ncc_unlike_numpy(cov, vl, vr, n, channels, measure)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -265,7 +264,7 @@ def _dissimilarity(a, b, channels, n, measure):  # pragma: no cover - compiled
         cov += n * sab - sa * sb
         vl += n * saa - sa * sa
         vr += n * sbb - sb * sb
-    return ncc_unlike(cov, vl, vr, n, NCC_SCALE * a.shape[0], measure)
+    return ncc_unlike(cov, vl, vr, n, channels, measure)
 
 
 @numba.njit(cache=True, nogil=True)
