@@ -63,7 +63,7 @@ class EngineConfig:
         "compute with SGBM, sub-pixel, on the real motorcycle pair with the right image 25 % "
         "brighter and noise σ 5, the better half of the flies within 2 px: contrast_zncc "
         "0.97, zncc 0.95, gain_zssd 0.87, zssd 0.36; on the simulated corridor at 320×240 "
-        "F 0.88, 0.81, 0.88, 0.88: docs/engine.md",
+        "F 0.88, 0.80, 0.88, 0.88: docs/engine.md",
     )
     subpixel: bool = param(
         True,
