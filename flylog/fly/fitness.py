@@ -35,9 +35,9 @@ from flylog.fly.fitness_terms import (
     NCC_BIT,
     SUBPIXEL_BIT,
     ncc_lanes,
+    ncc_unlike,
     subpixel_column,
     windows_into,
-    zncc_of,
 )
 from flylog.fly.fitness_terms import INVALID_FITNESS as INVALID_FITNESS
 from flylog.fly.fitness_terms import NCC_SCALE as NCC_SCALE
@@ -135,7 +135,6 @@ def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, gua
     n = window * window
     ncols = window * channels
     denominator_guard = guard * n * channels
-    ncc_scale = NCC_SCALE * n * channels
     lflat = lrow.reshape(size)
     rflat = rrow.reshape(size)
     lanes = HALF if ncols <= HALF else LANES
@@ -260,8 +259,8 @@ def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, gua
         if ncc:
             for t in range(m):
                 if first_l[t] >= 0:
-                    zncc = zncc_of(totals[t], variances[0, t], variances[1, t])
-                    unlike = ncc_scale * (1.0 - zncc)
+                    unlike = ncc_unlike(totals[t], variances[0, t], variances[1, t], n,
+                                        channels, measure)  # fmt: skip
                     g = math.sqrt(math.sqrt(float(grads[t])))
                     fitness[t] = g / (denominator_guard + unlike)
         else:

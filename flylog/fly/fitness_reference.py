@@ -10,11 +10,13 @@ from flylog.fly.fitness_terms import (
     FRACTION,
     FRACTION_BITS,
     INVALID_FITNESS,
-    NCC_SCALE,
+    NCC_BIT,
     as_planes,
     gy_weight,
+    ncc_sums_numpy,
+    ncc_unlike_numpy,
+    similarity_bits,
     subpixel_columns_numpy,
-    zncc_numpy,
 )
 from flylog.geometry import StereoRig
 
@@ -65,8 +67,10 @@ def fitness_numpy(
     gy = (c[:, 2, :] - c[:, 0, :]) * np.array([1, 2, 1])[None, :, None]
     grad2 = (gx.sum(axis=1) ** 2 + gy_weight(gradient) * gy.sum(axis=1) ** 2).sum(axis=1)
     g = np.sqrt(np.sqrt(grad2.astype(np.float64)))
-    if Similarity(similarity) is Similarity.ZNCC:
-        unlike = NCC_SCALE * n * channels * (1.0 - zncc_numpy(patch_l, patch_r))
+    measure = similarity_bits(similarity)
+    if measure & NCC_BIT:
+        cov, vl, vr = ncc_sums_numpy(patch_l, patch_r)
+        unlike = ncc_unlike_numpy(cov, vl, vr, n, channels, measure)
         out[valid] = g / (guard * n * channels + unlike)
     else:
         out[valid] = g / (zssd + guard * n * channels)

@@ -9,6 +9,20 @@ ZNCC, pooled over channels (each channel loses its own mean): with n = w×w and,
 change when the right image is ``a·R + b`` for any gain a > 0 and offsets b per channel.
 The fitness built on it (``NCC_SCALE``) is in :mod:`flylog.fly.fitness`.
 
+The gain-compensated zero-mean SSD reuses those sums: the left patch the reference, the
+right one's deviations scaled to its contrast, ``Σ‖(L − μL) − g·(R − μR)‖²`` with
+``g = σL/σR`` (pooled over channels) is ``2·(vl/n)·(1 − ZNCC)``: unchanged by a gain a > 0
+and offsets of the right image, and, as the zero-mean SSD, small for a low-contrast left
+patch whatever it is compared with. A flat right patch (ZNCC 0) scores ``2·vl/n``, the
+value of an uncorrelated one.
+
+contrast_zncc weighs 1 − ZNCC by the left patch's contrast σL = sqrt(vl/(n²·C)) grey levels
+(per pixel and channel), ``2·s·σL·n·C·(1 − ZNCC) = CONTRAST_SCALE·sqrt(C·vl)·(1 − ZNCC)``,
+s = 4: the geometric mean of zncc's ``2·s²`` and the gain-compensated SSD's ``2·σL²``
+weights, so zncc's at σL = s. Unchanged by a gain and offsets of the right image as both;
+under noise of sd σ a right match scores ≈ 2·s·σ²/σL per pixel, a flat patch ≈ 2·s·σ at any
+depth, so texture wins over flat noise (the gain-compensated SSD scores both ≈ 2·σ²).
+
 The compiled kernels of :mod:`flylog.fly.fitness` read GY_BIT and NCC_BIT as compile-time
 constants; numba's cache of those kernels does not see a change here.
 """
@@ -35,8 +49,13 @@ FRACTION = 1 << FRACTION_BITS
 
 # Bits of the ``measure`` integer the compiled kernels take (measure_code).
 GY_BIT = 1  # the Sobel norm² includes gy²
-NCC_BIT = 2  # the similarity is ZNCC (else ZSSD)
+NCC_BIT = 2  # the kernels sum ZNCC's terms (cov, vl, vr; else ZSSD's)
 SUBPIXEL_BIT = 4  # the right window is sampled at the exact right projection
+GAIN_BIT = 8  # with NCC_BIT: the gain-compensated zero-mean SSD from those sums (else ZNCC)
+CONTRAST_BIT = 16  # with NCC_BIT: 1 − ZNCC weighted by the left patch's contrast
+# contrast_zncc's 2·s (grey levels): its dissimilarity is 2·s·σL·(1 − ZNCC) per pixel and
+# channel, zncc's at σL = s.
+CONTRAST_SCALE = 2.0 * 4.0
 
 
 def gy_weight(gradient: Gradient) -> int:
@@ -49,9 +68,21 @@ def measure_code(
     gradient: Gradient, similarity: Similarity = Similarity.ZSSD, subpixel: bool = False
 ) -> int:
     """The ``measure`` integer the compiled kernels take: :data:`GY_BIT` for the paper's
-    Sobel norm, :data:`NCC_BIT` for ZNCC, :data:`SUBPIXEL_BIT` for sub-pixel sampling."""
-    ncc = Similarity(similarity) is Similarity.ZNCC
-    return gy_weight(gradient) * GY_BIT + (NCC_BIT if ncc else 0) + (SUBPIXEL_BIT * subpixel)
+    Sobel norm, :data:`NCC_BIT` for ZNCC, with :data:`GAIN_BIT` too for the gain-compensated
+    zero-mean SSD, :data:`SUBPIXEL_BIT` for sub-pixel sampling."""
+    return gy_weight(gradient) * GY_BIT + similarity_bits(similarity) + SUBPIXEL_BIT * subpixel
+
+
+def similarity_bits(similarity: Similarity) -> int:
+    """The bits of :func:`measure_code` that choose the dissimilarity."""
+    kind = Similarity(similarity)
+    if kind is Similarity.ZNCC:
+        return NCC_BIT
+    if kind is Similarity.GAIN_ZSSD:
+        return NCC_BIT | GAIN_BIT
+    if kind is Similarity.CONTRAST_ZNCC:
+        return NCC_BIT | CONTRAST_BIT
+    return 0
 
 
 def as_planes(image: np.ndarray) -> np.ndarray:
@@ -215,8 +246,36 @@ def zncc_of(cov, vl, vr):  # pragma: no cover - compiled
     return cov / np.sqrt(product) if product > 0.0 else 0.0
 
 
-def zncc_numpy(patch_l: np.ndarray, patch_r: np.ndarray) -> np.ndarray:
-    """Reference: ZNCC of (M, w, w, C) int64 patch pairs, the compiled kernel's arithmetic."""
+@numba.njit(cache=True, nogil=True, inline="always")
+def ncc_unlike(cov, vl, vr, n, channels, measure):  # pragma: no cover - compiled
+    """The dissimilarity from ZNCC's sums (integers or floats) of an n-pixel, C-channel
+    window, for the ``measure`` of :func:`measure_code`: ``NCC_SCALE·n·C·(1 − ZNCC)``; with
+    :data:`GAIN_BIT` the gain-compensated zero-mean SSD ``2·(vl/n)·(1 − ZNCC)``; with
+    :data:`CONTRAST_BIT` ``CONTRAST_SCALE·sqrt(C·vl)·(1 − ZNCC)`` (module docstring).
+    Same arithmetic as :func:`ncc_unlike_numpy`."""
+    if measure & GAIN_BIT:
+        return 2.0 * (float(vl) / n) * (1.0 - zncc_of(cov, vl, vr))
+    if measure & CONTRAST_BIT:
+        return CONTRAST_SCALE * np.sqrt(float(vl) * channels) * (1.0 - zncc_of(cov, vl, vr))
+    return NCC_SCALE * n * channels * (1.0 - zncc_of(cov, vl, vr))
+
+
+def ncc_unlike_numpy(cov, vl, vr, n: int, channels: int, measure: int) -> np.ndarray:
+    """Reference: :func:`ncc_unlike` of arrays."""
+    vl = np.asarray(vl).astype(np.float64)
+    vr = np.asarray(vr).astype(np.float64)
+    product = vl * vr
+    with np.errstate(divide="ignore", invalid="ignore"):
+        zncc = np.where(product > 0.0, cov / np.sqrt(product), 0.0)
+    if measure & GAIN_BIT:
+        return 2.0 * (vl / n) * (1.0 - zncc)
+    if measure & CONTRAST_BIT:
+        return CONTRAST_SCALE * np.sqrt(vl * channels) * (1.0 - zncc)
+    return NCC_SCALE * n * channels * (1.0 - zncc)
+
+
+def ncc_sums_numpy(patch_l: np.ndarray, patch_r: np.ndarray):
+    """Reference: :func:`ncc_lanes`'s (cov, vl, vr) of (M, w, w, C) int64 patch pairs."""
     n = patch_l.shape[1] * patch_l.shape[2]
     a1, b1 = patch_l.sum(axis=(1, 2)), patch_r.sum(axis=(1, 2))
     a2, b2 = (patch_l * patch_l).sum(axis=(1, 2)), (patch_r * patch_r).sum(axis=(1, 2))
@@ -224,6 +283,12 @@ def zncc_numpy(patch_l: np.ndarray, patch_r: np.ndarray) -> np.ndarray:
     cov = (n * ab - a1 * b1).sum(axis=1)
     vl = (n * a2 - a1 * a1).sum(axis=1)
     vr = (n * b2 - b1 * b1).sum(axis=1)
+    return cov, vl, vr
+
+
+def zncc_numpy(patch_l: np.ndarray, patch_r: np.ndarray) -> np.ndarray:
+    """Reference: ZNCC of (M, w, w, C) int64 patch pairs, the compiled kernel's arithmetic."""
+    cov, vl, vr = ncc_sums_numpy(patch_l, patch_r)
     product = vl.astype(np.float64) * vr.astype(np.float64)
     with np.errstate(divide="ignore", invalid="ignore"):
         zncc = cov / np.sqrt(product)

@@ -10,8 +10,10 @@ flies at a wrong depth hardly bias it while the robot turns in place.
 
 The comparison is the fitness formula across time instead of across cameras: for each fly,
 G of the keyframe's left patch (the horizontal Sobel: a yaw moves the image horizontally)
-over the zero-mean SSD between its keyframe patch and its patch in the later pair, left and
-right cameras summed; the scan's peak (a parabola through its neighbours) is the measured ε.
+over the engine's dissimilarity (``engine.similarity``, :mod:`flylog.fly.fitness_terms`;
+the keyframe's patch in the place of the left one) between its keyframe patch and its patch
+in the later pair, left and right cameras summed; the scan's peak (a parabola through its
+neighbours) is the measured ε.
 
 A measurement is made once the robot has driven ``keyframe_distance`` or turned
 ``keyframe_turn_deg`` since the keyframe (or ``keyframe_frames`` pairs came); that pair
@@ -38,7 +40,14 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from flylog.fly.config import Similarity
 from flylog.fly.fitness import as_planes, rig_constants
+from flylog.fly.fitness_terms import (
+    NCC_BIT,
+    ncc_unlike,
+    ncc_unlike_numpy,
+    similarity_bits,
+)
 from flylog.fly.fusion import moved_by_odometry
 from flylog.fly.heading_config import HeadingConfig
 from flylog.geometry import Pose2D, StereoRig
@@ -124,18 +133,21 @@ def yaw_scores_numpy(
     offsets: np.ndarray,
     window: int,
     guard: float,
+    similarity: Similarity = Similarity.ZSSD,
 ) -> np.ndarray:
     """Reference: for each extra yaw of ``offsets``, Σ over the points ``xyz`` (base_link at
-    pair k, all :func:`comparable_flies`) of G_k·(1/(ZSSD_left + g) + 1/(ZSSD_right + g)),
-    ZSSD per pixel between each point's patch in pair k (``before``: left, right images) and
-    in pair k+1 (``after``), both sampled bilinearly at the point's exact projections (a
-    rounded projection makes each fly's score a step function of the yaw, whose sum is
-    biased wherever the flies' sub-pixel phases are not spread evenly); G_k = sqrt(|gx|) of
-    the pair-k left patch (central differences)."""
+    pair k, all :func:`comparable_flies`) of G_k·(1/(D_left + g) + 1/(D_right + g)), D the
+    ``similarity``'s dissimilarity (:func:`patch_dissimilarity_numpy`) between each point's
+    patch in pair k (``before``: left, right images) and in pair k+1 (``after``), both
+    sampled bilinearly at the point's exact projections (a rounded projection makes each
+    fly's score a step function of the yaw, whose sum is biased wherever the flies' sub-pixel
+    phases are not spread evenly); G_k = sqrt(|gx|) of the pair-k left patch (central
+    differences)."""
     h = window // 2
     n = window * window
     channels = as_planes(before[0]).shape[2]
     g = guard * n * channels
+    measure = similarity_bits(similarity)
     u_left, u_right, v, _ = rig.project(xyz)
     left_k = bilinear_patches(before[0], u_left, v, h)
     right_k = bilinear_patches(before[1], u_right, v, h)
@@ -146,12 +158,47 @@ def yaw_scores_numpy(
         ul, ur, vv, _ = rig.project(moved_and_turned(xyz, increment, float(extra)))
         total = np.zeros(len(xyz))
         for patch_k, image, u in ((left_k, after[0], ul), (right_k, after[1], ur)):
-            d = patch_k - bilinear_patches(image, u, vv, h)
-            s1 = d.sum(axis=(1, 2))
-            s2 = (d * d).sum(axis=(1, 2))
-            total += 1.0 / ((n * s2 - s1 * s1).sum(axis=1) / n + g)
+            sample = bilinear_patches(image, u, vv, h)
+            unlike = patch_dissimilarity_numpy(patch_k.reshape(len(xyz), -1),
+                                               sample.reshape(len(xyz), -1), channels,
+                                               measure)  # fmt: skip
+            total += 1.0 / (unlike + g)
         scores[j] = float((weight * total).sum())
     return scores
+
+
+def patch_dissimilarity_numpy(a: np.ndarray, b: np.ndarray, channels: int, measure: int):
+    """Reference: :func:`_dissimilarity` of (M, n·C) patch pairs (layout of :func:`_sample`),
+    its sums in its order: the zero-mean SSD, or (``measure`` with NCC_BIT, the bits of
+    :func:`~flylog.fly.fitness_terms.similarity_bits`) the fitness's dissimilarity from
+    ZNCC's float sums."""
+    size = a.shape[1]
+    n = size // channels
+    zero = np.zeros(a.shape[0])
+    if not measure & NCC_BIT:
+        s2, total = zero.copy(), zero.copy()
+        for ch in range(channels):
+            s1 = zero.copy()
+            for t in range(ch, size, channels):
+                d = a[:, t] - b[:, t]
+                s1 += d
+                s2 += d * d
+            total -= s1 * s1
+        return (n * s2 + total) / n
+    cov, vl, vr = zero.copy(), zero.copy(), zero.copy()
+    for ch in range(channels):
+        sa, sb, saa, sbb, sab = (zero.copy() for _ in range(5))
+        for t in range(ch, size, channels):
+            x, y = a[:, t], b[:, t]
+            sa += x
+            sb += y
+            saa += x * x
+            sbb += y * y
+            sab += x * y
+        cov += n * sab - sa * sb
+        vl += n * saa - sa * sa
+        vr += n * sbb - sb * sb
+    return ncc_unlike_numpy(cov, vl, vr, n, channels, measure)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -191,8 +238,38 @@ def _zssd(a, b, channels, n):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True)
+def _dissimilarity(a, b, channels, n, measure):  # pragma: no cover - compiled
+    """The fitness's dissimilarity between two sampled patches (layout of :func:`_sample`)
+    for the ``measure`` bits of :func:`~flylog.fly.fitness_terms.similarity_bits`: the
+    zero-mean SSD, or from ZNCC's sums in float (:func:`patch_dissimilarity_numpy`)."""
+    if not measure & NCC_BIT:
+        return _zssd(a, b, channels, n)
+    cov = 0.0
+    vl = 0.0
+    vr = 0.0
+    for ch in range(channels):
+        sa = 0.0
+        sb = 0.0
+        saa = 0.0
+        sbb = 0.0
+        sab = 0.0
+        for t in range(ch, a.shape[0], channels):
+            x = a[t]
+            y = b[t]
+            sa += x
+            sb += y
+            saa += x * x
+            sbb += y * y
+            sab += x * y
+        cov += n * sab - sa * sb
+        vl += n * saa - sa * sa
+        vr += n * sbb - sb * sb
+    return ncc_unlike(cov, vl, vr, n, channels, measure)
+
+
+@numba.njit(cache=True, nogil=True)
 def _yaw_scores_kernel(lk, rk, l1, r1, channels, xyz, moved, offsets, k, window, guard,
-                       out):  # fmt: skip  # pragma: no cover - compiled
+                       measure, out):  # fmt: skip  # pragma: no cover - compiled
     """:func:`yaw_scores_numpy`'s sums; ``moved``: the points after the odometry increment
     (before the extra yaw), all comparable; images as (H, W·C) uint8 rows."""
     focal, cx, cy, cx_right = k[FOCAL], k[CX], k[CY], k[CX_RIGHT]
@@ -226,9 +303,9 @@ def _yaw_scores_kernel(lk, rk, l1, r1, channels, xyz, moved, offsets, k, window,
             a, b, depth, ar = optical(k, x, y, moved[i, 2])
             v = cy + focal * b / depth
             _sample(l1, channels, cx + focal * a / depth, v, h, sample)
-            zl = _zssd(left_k[i], sample, channels, n)
+            zl = _dissimilarity(left_k[i], sample, channels, n, measure)
             _sample(r1, channels, cx_right + focal * ar / depth, v, h, sample)
-            zr = _zssd(right_k[i], sample, channels, n)
+            zr = _dissimilarity(right_k[i], sample, channels, n, measure)
             total += weight[i] * (1.0 / (zl + g) + 1.0 / (zr + g))
         out[j] = total
 
@@ -242,8 +319,10 @@ def yaw_scores_numba(
     offsets: np.ndarray,
     window: int,
     guard: float,
+    similarity: Similarity = Similarity.ZSSD,
 ) -> np.ndarray:
-    """:func:`yaw_scores_numpy`, compiled (the same sums, up to the order of the additions)."""
+    """:func:`yaw_scores_numpy`, compiled (the same sums; the patches' sampling and the sum
+    over flies up to the order of the additions)."""
     rows = []
     for image in (*before, *after):
         planes = as_planes(image)
@@ -254,7 +333,8 @@ def yaw_scores_numba(
     out = np.empty(len(offsets))
     lk, rk, l1, r1 = rows
     _yaw_scores_kernel(lk, rk, l1, r1, channels, xyz, moved, np.asarray(offsets, np.float64),
-                       rig_constants(rig), window, float(guard), out)  # fmt: skip
+                       rig_constants(rig), window, float(guard), similarity_bits(similarity),
+                       out)  # fmt: skip
     return out
 
 
@@ -278,12 +358,13 @@ def measure_yaw(
     rig: StereoRig,
     config: HeadingConfig,
     *,
+    similarity: Similarity = Similarity.ZSSD,
     use_numba: bool = True,
 ) -> YawMeasurement:
     """The turn error between pair k (``before``, the keyframe) and a later pair (``after``)
     measured by the points ``xyz`` (the fittest flies first, base_link at pair k) moved by the
     odometry ``increment``: the first ``config.flies`` of them that stay comparable over the
-    scan."""
+    scan, their patches compared with the engine's ``similarity``."""
     offsets = config.offsets(rig.focal_px)
     points = np.asarray(xyz, dtype=np.float64)
     points = points[comparable_flies(points, increment, rig, offsets, config.window)]
@@ -296,7 +377,8 @@ def measure_yaw(
     if len(points) < config.min_flies or len(offsets) < 3:
         return YawMeasurement(None, len(points))
     scores_of = yaw_scores_numba if use_numba else yaw_scores_numpy
-    scores = scores_of(before, after, points, increment, rig, offsets, config.window, config.guard)
+    scores = scores_of(before, after, points, increment, rig, offsets, config.window,
+                       config.guard, similarity)  # fmt: skip
     return YawMeasurement(scan_peak(offsets, scores), len(points))
 
 

@@ -148,7 +148,7 @@ class FlyPipeline:
         # centred between start and goal, so both fit whenever they are extent apart at most
         centre = ((start.x + goal[0]) / 2.0, (start.y + goal[1]) / 2.0)
         self.planner = HarmonicPlanner.centred_on(config.planner, centre, goal)
-        self._poses = PoseTracker(config.heading, rig, start)
+        self._poses = PoseTracker(config.heading, rig, start, config.engine.similarity)
         self.published = Publication(self.engine, start)
         self._candidates = Candidates(config.obstacles)
         self._jobs = PlannerJobs(

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from flylog.fly.config import Similarity
 from flylog.fly.heading import HeadingConfig, fused_yaw, measure_yaw
 from flylog.fly.population import Population
 from flylog.geometry import Pose2D, StereoRig, compose, inverse, relative
@@ -92,8 +93,15 @@ class PoseTracker:
     (:attr:`at_images`), both heading-corrected: the robot's pose is the visual heading's
     correction ⊕ the odometry's (no correction until the first measurement)."""
 
-    def __init__(self, config: HeadingConfig, rig: StereoRig, start: Pose2D) -> None:
+    def __init__(
+        self,
+        config: HeadingConfig,
+        rig: StereoRig,
+        start: Pose2D,
+        similarity: Similarity = Similarity.ZSSD,
+    ) -> None:
         self._config = config
+        self._similarity = similarity  # the engine's: the heading compares patches with it
         self._rig = rig
         self._odom = OdomReading(0, start)
         self._history: deque[OdomReading] = deque([self._odom], maxlen=ODOM_HISTORY)
@@ -171,7 +179,7 @@ class PoseTracker:
             return pose, 0
         measured = measure_yaw(
             (key.pair.left, key.pair.right), (pair.left, pair.right), key.xyz, since,
-            self._rig, cfg,
+            self._rig, cfg, similarity=self._similarity,
         )  # fmt: skip
         evaluations = cfg.evaluations(measured.flies)
         if measured.yaw is None:
