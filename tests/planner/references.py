@@ -61,3 +61,29 @@ def reachable_from_numpy(free: np.ndarray, seed: tuple[int, int]) -> np.ndarray:
         if np.array_equal(grown, out):
             return out
         out = grown
+
+
+def cone_cells_numpy(
+    geometry: GridGeometry,
+    cones: np.ndarray,
+    half_cone: float,
+    rows: slice = slice(None),
+    cols: slice = slice(None),
+) -> np.ndarray:
+    """Reference of :func:`flylog.planner.sonar_free.cone_cells`: each cone over the whole
+    window at once, the same arithmetic."""
+    ox, oy = geometry.origin
+    c = geometry.cell_size
+    centres = (np.arange(geometry.cells) + 0.5) * c
+    xs, ys = (ox + centres[cols])[None, :], (oy + centres[rows])[:, None]
+    out = np.zeros((ys.shape[0], xs.shape[1]), dtype=bool)
+    for x0, y0, yaw, reach in np.asarray(cones, dtype=np.float64).reshape(-1, 4):
+        if not reach > 0.0:
+            continue
+        dx, dy = xs - x0, ys - y0
+        cos_y, sin_y = math.cos(yaw), math.sin(yaw)
+        along = cos_y * dx + sin_y * dy
+        across = np.abs(cos_y * dy - sin_y * dx)
+        inside = along * math.sin(half_cone) - across * math.cos(half_cone) >= 0.5 * c
+        out |= inside & (along > 0.0) & (np.hypot(dx, dy) <= reach)
+    return out
