@@ -87,3 +87,57 @@ def cone_cells_numpy(
         inside = along * math.sin(half_cone) - across * math.cos(half_cone) >= 0.5 * c
         out |= inside & (along > 0.0) & (np.hypot(dx, dy) <= reach)
     return out
+
+
+def box_sum(counts: np.ndarray, half_width: int) -> np.ndarray:
+    """Sum of ``counts`` over the (2r+1) x (2r+1) window around each cell (window clipped
+    at the grid edges), through an integral image of the zero-padded counts (int64 for
+    integer counts, float64 for weights)."""
+    dtype = np.int64 if np.issubdtype(counts.dtype, np.integer) else np.float64
+    if half_width <= 0:
+        return counts.astype(dtype, copy=True)
+    k = 2 * half_width + 1
+    h, w = counts.shape
+    integral = np.zeros((h + k, w + k), dtype=dtype)
+    integral[1:, 1:] = np.pad(counts, half_width).cumsum(axis=0).cumsum(axis=1)
+    return integral[k:, k:] - integral[:h, k:] - integral[k:, :w] + integral[:h, :w]
+
+
+def dense_cells_numpy(
+    counts: np.ndarray,
+    cell_size: float,
+    half_width: int,
+    threshold: float,
+    rows: slice = slice(None),
+    cols: slice = slice(None),
+) -> np.ndarray:
+    """Reference of :func:`flylog.planner.obstacles.dense_cells`: (H, W) bool, cells holding
+    at least one fly whose window density (flies per m² over the (2r+1)² window) reaches
+    ``threshold``. Requiring a fly in the cell itself keeps the
+    obstacle where the flies are (the window does not smear it); the window rejects
+    isolated flies. With ``rows`` and ``cols`` (steps of 1), those cells only: the same
+    values as ``dense_cells(counts, ...)[rows, cols]`` (the planner needs the cells in view
+    range, a quarter of the grid)."""
+    window_area = ((2 * half_width + 1) * cell_size) ** 2
+    counts_in = counts[rows, cols]
+    density = box_sum(around(counts, rows, cols, half_width), half_width) / window_area
+    r = max(half_width, 0)
+    density = density[r : r + counts_in.shape[0], r : r + counts_in.shape[1]]
+    return (counts_in > 0) & (density >= threshold)
+
+
+def around(counts: np.ndarray, rows: slice, cols: slice, margin: int) -> np.ndarray:
+    """``counts[rows, cols]`` and ``margin`` more cells on every side, zeros off the grid
+    (as box_sum pads the whole grid)."""
+    margin = max(margin, 0)
+    h, w = counts.shape
+    r0, r1, _ = rows.indices(h)
+    c0, c1, _ = cols.indices(w)
+    out = np.zeros((max(r1 - r0, 0) + 2 * margin, max(c1 - c0, 0) + 2 * margin), counts.dtype)
+    a0, a1 = max(r0 - margin, 0), min(r1 + margin, h)
+    b0, b1 = max(c0 - margin, 0), min(c1 + margin, w)
+    if a0 < a1 and b0 < b1:
+        out[a0 - r0 + margin : a1 - r0 + margin, b0 - c0 + margin : b1 - c0 + margin] = counts[
+            a0:a1, b0:b1
+        ]
+    return out
