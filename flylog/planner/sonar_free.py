@@ -65,8 +65,12 @@ def _cone_cells_kernel(ox, oy, c, r0, r1, c0, c1, cones, sin_h, cos_h):  # pragm
         cos_y, sin_y = math.cos(yaw), math.sin(yaw)
         for i in range(r1 - r0):
             dy = (oy + (i + r0 + 0.5) * c) - y0
+            if abs(dy) > reach:  # hypot(dx, dy) >= |dy| (rounding is monotonic)
+                continue
             for j in range(c1 - c0):
                 dx = (ox + (j + c0 + 0.5) * c) - x0
+                if abs(dx) > reach:
+                    continue
                 along = cos_y * dx + sin_y * dy
                 across = abs(cos_y * dy - sin_y * dx)
                 # distance from the centre to the nearer edge ray: along·sin(h) − across·cos(h)

@@ -31,8 +31,13 @@ from mcap_protobuf.decoder import DecoderFactory
 
 from flylog.config import replace_dotted
 from flylog.experiments.reaction import first_visible_frames, reaction_delays
+from flylog.geometry import Pose2D
 from flylog.io import contract, encode, open_log, readahead
 from flylog.io.decode import DECODERS
+from flylog.planner import obstacles as planner_obstacles
+from flylog.planner import sonar_free
+from flylog.planner.config import PlannerConfig
+from flylog.planner.grid import GridGeometry
 from flylog.planner.map import ObstacleMap
 from flylog.planner.planner import HarmonicPlanner
 from flylog.replay import run as replay_run
@@ -44,7 +49,9 @@ from flylog.replay.planner_jobs import PlannerJobs
 from flylog.replay.run import replay
 from flylog.replay.worker import OutputQueue
 from flylog.scene.load import load_scene
+from flylog.sensors import SonarConfig, SonarReading
 from flylog.sim.run import SimulationOptions, simulate
+from tests.planner.references import cone_cells_numpy, dense_cells_numpy
 
 SCENES = Path(__file__).resolve().parents[2] / "fixtures" / "scenes"
 REFERENCE = ReplayConfig(generations_per_frame=10)
@@ -479,9 +486,67 @@ def _helper_priority(log: Path, out_dir: Path) -> list[dict]:
     ]
 
 
+def _map_kernels() -> list[dict]:
+    """The map update's compiled pieces against their numpy references (tests/planner), per
+    planner tick: the sonars' free cones and the window densities over the cells in view
+    range, the reference planner's grid (200 x 200 cells of 0.1 m), six sonars."""
+    cfg = PlannerConfig()
+    geometry = GridGeometry((-cfg.extent / 2, -cfg.extent / 2), cfg.cell_size, cfg.cells)
+    pose = Pose2D(0.3, -0.2, 0.4)
+    rows, cols = ObstacleMap(cfg, geometry).window(pose, cfg.view_range)
+    sonar = SonarConfig()
+    reading = SonarReading(
+        0, np.linspace(0.8, 3.5, 6), sonar.mounts(), math.radians(sonar.cone_deg),
+        sonar.max_range,
+    )  # fmt: skip
+    cones = sonar_free.free_cones(reading, pose, cfg.sonar_free_margin)
+    rng = np.random.default_rng(2)
+    weight = rng.poisson(0.3, geometry.shape) * rng.uniform(0.05, 1.0, geometry.shape)
+    hw, th = cfg.density_window_cells, cfg.density_threshold
+    half = reading.half_cone
+    assert np.array_equal(
+        sonar_free.cone_cells(geometry, cones, half, rows, cols),
+        cone_cells_numpy(geometry, cones, half, rows, cols),
+    )
+    assert np.array_equal(
+        planner_obstacles.dense_cells(weight, cfg.cell_size, hw, th, rows, cols),
+        dense_cells_numpy(weight, cfg.cell_size, hw, th, rows, cols),
+    )
+    best = _best_of(
+        {
+            "cones numpy": lambda: cone_cells_numpy(geometry, cones, half, rows, cols),
+            "cones": lambda: sonar_free.cone_cells(geometry, cones, half, rows, cols),
+            "density numpy": lambda: dense_cells_numpy(weight, cfg.cell_size, hw, th, rows, cols),
+            "density": lambda: planner_obstacles.dense_cells(
+                weight, cfg.cell_size, hw, th, rows, cols
+            ),
+        },
+        number=50,
+    )
+    window = f"{rows.stop - rows.start}x{cols.stop - cols.start} cells within view_range"
+    return [
+        {
+            "name": f"sonar free cones, {window}, 6 sonars",
+            "value": best["cones"] * 1e3,
+            "unit": "ms per tick",
+            "reference": "the numpy form (tests/planner/references.py)",
+            "ratio": best["cones"] / best["cones numpy"],
+            "note": f"numpy {best['cones numpy'] * 1e3:.2f} ms holding the GIL; same cells",
+        },
+        {
+            "name": f"map window densities, {window}",
+            "value": best["density"] * 1e3,
+            "unit": "ms per tick",
+            "reference": "the numpy form (tests/planner/references.py)",
+            "ratio": best["density"] / best["density numpy"],
+            "note": f"numpy {best['density numpy'] * 1e3:.2f} ms holding the GIL; same cells",
+        },
+    ]
+
+
 def _overheads(out_dir: Path) -> list[dict]:
     log = reference_log(out_dir)
-    figures = [_overlay_encoding(), _path_encoding()]
+    figures = [_overlay_encoding(), _path_encoding(), *_map_kernels()]
     run = out_dir / "bench_replay_run.mcap"
     if run.exists():  # written by _speed
         figures += _run_log_compression(run, out_dir)
