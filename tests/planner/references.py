@@ -141,3 +141,30 @@ def around(counts: np.ndarray, rows: slice, cols: slice, margin: int) -> np.ndar
             a0:a1, b0:b1
         ]
     return out
+
+
+def seen_free_numpy(
+    in_view: np.ndarray,
+    detected: np.ndarray,
+    rng: np.ndarray,
+    bearing: np.ndarray,
+    half_fov: float,
+    cell_size: float,
+    view_range: float,
+) -> np.ndarray:
+    """Reference of :func:`flylog.planner.obstacles.seen_free`: (H, W) bool, cells in view,
+    not detected, and nearer than the first detected obstacle in their bearing (cells in an
+    obstacle's shadow are not seen, so are not free).
+
+    Bearings are binned at the angle one cell subtends at the view range; each bin's shadow
+    starts at the nearest detection in it or its two neighbours, less one cell (the
+    detection's own extent)."""
+    width = max(cell_size / max(view_range, cell_size), 1e-6)
+    n_bins = max(1, math.ceil(2.0 * half_fov / width))
+    bins = np.clip(((bearing + half_fov) / width).astype(np.int64), 0, n_bins - 1)
+    nearest = np.full(n_bins + 2, np.inf)
+    hits = detected & in_view
+    np.minimum.at(nearest, bins[hits] + 1, rng[hits])
+    # an obstacle cell spans a little more than its bin: its neighbours share its shadow
+    shadow = np.minimum(np.minimum(nearest[:-2], nearest[1:-1]), nearest[2:])
+    return in_view & ~detected & (rng < shadow[bins] - cell_size)

@@ -8,7 +8,7 @@ from flylog.planner import HarmonicPlanner, PlannerConfig
 from flylog.planner import obstacles as obs
 from flylog.planner.grid import GridGeometry
 from flylog.sensors import SonarReading
-from tests.planner.references import box_sum, dense_cells_numpy
+from tests.planner.references import box_sum, dense_cells_numpy, seen_free_numpy
 
 # 10 m grid at 0.1 m centred on the origin; the robot at the origin looking along +x.
 CFG = PlannerConfig(
@@ -308,3 +308,19 @@ def test_flies_are_mapped_only_as_far_as_the_rig_resolves_depth():
     assert not p.detected_mask.any()
     p.update_obstacles(_cluster(3.55, 0.05, 10), ROBOT, FOV, view_range=reach)
     assert p.detected_mask.any()
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_seen_free_kernel_matches_its_numpy_reference_bit_for_bit(seed):
+    rng = np.random.default_rng(seed)
+    geometry = GridGeometry((-5.0, -5.0), 0.1, 100)
+    pose = Pose2D(rng.uniform(-2, 2), rng.uniform(-2, 2), rng.uniform(-math.pi, math.pi))
+    rows, cols = slice(10, 90), slice(5, 100)
+    ranges, bearing = obs.polar_of_cells(geometry, pose, rows, cols)
+    half_fov, view_range = math.radians(30.0), 4.0
+    in_view = obs.view_mask(ranges, bearing, half_fov, view_range)
+    detected = rng.random(ranges.shape) < 0.02
+    got = obs.seen_free(in_view, detected, ranges, bearing, half_fov, 0.1, view_range)
+    want = seen_free_numpy(in_view, detected, ranges, bearing, half_fov, 0.1, view_range)
+    np.testing.assert_array_equal(got, want)
+    assert got.any() and (in_view & ~got & ~detected).any()  # some cells lie in a shadow
