@@ -9,13 +9,19 @@ with 5000 flies, 10 generations per frame, planner 200×200 at 10 Hz, all output
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import resource
 import subprocess
 import sys
+import threading
 import time
+from collections import defaultdict
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
+from unittest import mock
 
 import foxglove.messages as fm
 import numpy as np
@@ -25,13 +31,27 @@ from mcap_protobuf.decoder import DecoderFactory
 
 from flylog.config import replace_dotted
 from flylog.experiments.reaction import first_visible_frames, reaction_delays
+from flylog.geometry import Pose2D
 from flylog.io import contract, encode, open_log, readahead
 from flylog.io.decode import DECODERS
+from flylog.planner import obstacles as planner_obstacles
+from flylog.planner import sonar_free
+from flylog.planner.config import PlannerConfig
+from flylog.planner.grid import GridGeometry
+from flylog.planner.map import ObstacleMap
+from flylog.planner.planner import HarmonicPlanner
+from flylog.replay import run as replay_run
 from flylog.replay.config import ReplayConfig
 from flylog.replay.inputs import SENSOR_TOPICS
+from flylog.replay.obstacle_cache import Evidence
+from flylog.replay.pipeline import FlyPipeline
+from flylog.replay.planner_jobs import PlannerJobs
 from flylog.replay.run import replay
+from flylog.replay.worker import OutputQueue
 from flylog.scene.load import load_scene
+from flylog.sensors import SonarConfig, SonarReading
 from flylog.sim.run import SimulationOptions, simulate
+from tests.planner.references import cone_cells_numpy, dense_cells_numpy
 
 SCENES = Path(__file__).resolve().parents[2] / "fixtures" / "scenes"
 REFERENCE = ReplayConfig(generations_per_frame=10)
@@ -466,14 +486,207 @@ def _helper_priority(log: Path, out_dir: Path) -> list[dict]:
     ]
 
 
+def _map_kernels() -> list[dict]:
+    """The map update's compiled pieces against their numpy references (tests/planner), per
+    planner tick: the sonars' free cones and the window densities over the cells in view
+    range, the reference planner's grid (200 x 200 cells of 0.1 m), six sonars."""
+    cfg = PlannerConfig()
+    geometry = GridGeometry((-cfg.extent / 2, -cfg.extent / 2), cfg.cell_size, cfg.cells)
+    pose = Pose2D(0.3, -0.2, 0.4)
+    rows, cols = ObstacleMap(cfg, geometry).window(pose, cfg.view_range)
+    sonar = SonarConfig()
+    reading = SonarReading(
+        0, np.linspace(0.8, 3.5, 6), sonar.mounts(), math.radians(sonar.cone_deg),
+        sonar.max_range,
+    )  # fmt: skip
+    cones = sonar_free.free_cones(reading, pose, cfg.sonar_free_margin)
+    rng = np.random.default_rng(2)
+    weight = rng.poisson(0.3, geometry.shape) * rng.uniform(0.05, 1.0, geometry.shape)
+    hw, th = cfg.density_window_cells, cfg.density_threshold
+    half = reading.half_cone
+    assert np.array_equal(
+        sonar_free.cone_cells(geometry, cones, half, rows, cols),
+        cone_cells_numpy(geometry, cones, half, rows, cols),
+    )
+    assert np.array_equal(
+        planner_obstacles.dense_cells(weight, cfg.cell_size, hw, th, rows, cols),
+        dense_cells_numpy(weight, cfg.cell_size, hw, th, rows, cols),
+    )
+    best = _best_of(
+        {
+            "cones numpy": lambda: cone_cells_numpy(geometry, cones, half, rows, cols),
+            "cones": lambda: sonar_free.cone_cells(geometry, cones, half, rows, cols),
+            "density numpy": lambda: dense_cells_numpy(weight, cfg.cell_size, hw, th, rows, cols),
+            "density": lambda: planner_obstacles.dense_cells(
+                weight, cfg.cell_size, hw, th, rows, cols
+            ),
+        },
+        number=50,
+    )
+    window = f"{rows.stop - rows.start}x{cols.stop - cols.start} cells within view_range"
+    return [
+        {
+            "name": f"sonar free cones, {window}, 6 sonars",
+            "value": best["cones"] * 1e3,
+            "unit": "ms per tick",
+            "reference": "the numpy form (tests/planner/references.py)",
+            "ratio": best["cones"] / best["cones numpy"],
+            "note": f"numpy {best['cones numpy'] * 1e3:.2f} ms holding the GIL; same cells",
+        },
+        {
+            "name": f"map window densities, {window}",
+            "value": best["density"] * 1e3,
+            "unit": "ms per tick",
+            "reference": "the numpy form (tests/planner/references.py)",
+            "ratio": best["density"] / best["density numpy"],
+            "note": f"numpy {best['density numpy'] * 1e3:.2f} ms holding the GIL; same cells",
+        },
+    ]
+
+
 def _overheads(out_dir: Path) -> list[dict]:
     log = reference_log(out_dir)
-    figures = [_overlay_encoding(), _path_encoding()]
+    figures = [_overlay_encoding(), _path_encoding(), *_map_kernels()]
     run = out_dir / "bench_replay_run.mcap"
     if run.exists():  # written by _speed
         figures += _run_log_compression(run, out_dir)
     return figures + _reading_allocator(log) + _chunk_parsing(log) + _helper_priority(log, out_dir)
 
 
+class _Accounts:
+    """Seconds of CPU (the calling thread's) and of wall time spent in wrapped calls, by
+    name: the outermost call of a name only (the engine's one-generation call goes through
+    the many-generation one)."""
+
+    def __init__(self) -> None:
+        self.cpu: dict[str, float] = defaultdict(float)
+        self.wall: dict[str, float] = defaultdict(float)
+        self._inside: set[tuple[int, str]] = set()
+
+    def wrap(self, stack: contextlib.ExitStack, owner: object, attr: str, name: str) -> None:
+        fn = getattr(owner, attr)
+
+        def timed(*args: Any, **kwargs: Any) -> Any:
+            key = (threading.get_ident(), name)
+            if key in self._inside:
+                return fn(*args, **kwargs)
+            self._inside.add(key)
+            c0, w0 = time.thread_time(), time.perf_counter()
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                self.cpu[name] += time.thread_time() - c0
+                self.wall[name] += time.perf_counter() - w0
+                self._inside.discard(key)
+
+        stack.enter_context(mock.patch.object(owner, attr, timed))
+
+    def waited_for_records(self, stack: contextlib.ExitStack) -> None:
+        """Time the engine's thread waits for the next record of the reading thread."""
+        opened = replay_run.open_source
+
+        def source(*args: Any, **kwargs: Any) -> Any:
+            found = opened(*args, **kwargs)
+            found.records = self._timed_records(found.records)
+            return found
+
+        stack.enter_context(mock.patch.object(replay_run, "open_source", source))
+
+    def _timed_records(self, records: Iterator[Any]) -> Iterator[Any]:
+        while True:
+            w0 = time.perf_counter()
+            item = next(records, None)
+            self.wall["records"] += time.perf_counter() - w0
+            if item is None:
+                return
+            yield item
+
+
+def _thread_cpu(stop: threading.Event, into: dict[str, float]) -> None:
+    """Every 10 ms, each thread's CPU so far (Linux schedstat), by thread name: the last
+    seen when the thread ends (up to 10 ms short)."""
+    while not stop.wait(0.01):
+        for thread in threading.enumerate():
+            path = f"/proc/self/task/{thread.native_id}/schedstat"
+            with contextlib.suppress(OSError), open(path) as fh:
+                into[thread.name] = int(fh.read().split()[0]) / 1e9
+
+
+def _where_the_time_goes(out_dir: Path) -> list[dict]:
+    """One replay of the reference log, its engine thread's wall time taken apart: the
+    engine's compiled generations (thread CPU), the rest of that thread's CPU, waiting for
+    a core (schedstat), for the planner's worker (its queue full), for records, and the
+    remainder (mostly waiting for the GIL); and each helper thread's CPU, the worker's by
+    job."""
+    if not sys.platform.startswith("linux"):
+        return []
+    accounts = _Accounts()
+    threads: dict[str, float] = {}
+    with contextlib.ExitStack() as stack:
+        for owner, attr, name in (
+            (FlyPipeline, "run_generations", "engine"),
+            (FlyPipeline, "generation", "engine"),
+            (FlyPipeline, "deliver", "deliver"),
+            (FlyPipeline, "tick", "tick"),
+            (OutputQueue, "submit", "queue"),
+            (OutputQueue, "flush", "queue"),
+            (PlannerJobs, "tick", "planner tick"),
+            (PlannerJobs, "snapshot", "snapshot"),
+            (PlannerJobs, "warm_start", "warm start"),
+            (OutputQueue, "_emit", "writing"),
+            (Evidence, "of", "distinctness"),
+            (ObstacleMap, "update", "map update"),
+            (HarmonicPlanner, "relax", "relaxation"),
+            (HarmonicPlanner, "command", "command"),
+        ):
+            accounts.wrap(stack, owner, attr, name)
+        accounts.waited_for_records(stack)
+        stop = threading.Event()
+        watcher = threading.Thread(target=_thread_cpu, args=(stop, threads), name="bench-watch")
+        watcher.start()
+        try:
+            s0, c0 = _main_thread_schedstat(), time.thread_time()
+            summary = replay(reference_log(out_dir), out_dir / "bench_replay_time.mcap", REFERENCE)
+            s1, c1 = _main_thread_schedstat(), time.thread_time()
+        finally:
+            stop.set()
+            watcher.join()
+    cpu, wall = accounts.cpu, accounts.wall
+    main_cpu, queued = c1 - c0, s1[1] - s0[1]
+    # waiting for the queue and for records is wall time outside the thread's CPU
+    queue_wait, record_wait = wall["queue"] - cpu["queue"], wall["records"]
+    rest = summary.wall_seconds - main_cpu - queued - queue_wait - record_wait
+    engine = cpu["engine"]
+    reader = sum(v for k, v in threads.items() if k.startswith("flylog-read-ahead"))
+    worker = sum(v for k, v in threads.items() if k.startswith("flylog-planner"))
+    parts = ("map update", "relaxation", "distinctness", "command", "snapshot", "writing")
+    jobs = ", ".join(f"{name} {cpu[name]:.2f}" for name in (*parts, "warm start"))
+    speed = summary.log_duration / summary.wall_seconds
+    return [
+        {
+            "name": "replay 60 s log: the engine thread's wall time against the engine's CPU",
+            "value": summary.wall_seconds,
+            "unit": "s wall",
+            "reference": "the engine's compiled generations, thread CPU",
+            "ratio": summary.wall_seconds / engine,
+            "note": f"{speed:.2f}x real time; engine {engine:.2f} s CPU "
+            f"({summary.log_duration / engine:.1f}x real time alone), the thread's other CPU "
+            f"{main_cpu - engine:.2f} s (records in {cpu['deliver']:.2f}, of which the "
+            f"heading; ticks {cpu['tick']:.2f}), waiting for a core {queued:.2f} s, for the "
+            f"planner's worker {queue_wait:.2f} s, for records {record_wait:.2f} s, the rest "
+            f"(the GIL) {rest:.2f} s",
+        },
+        {
+            "name": "replay 60 s log: the helper threads' CPU",
+            "value": worker + reader,
+            "unit": "s CPU",
+            "reference": "the engine's compiled generations, thread CPU",
+            "ratio": (worker + reader) / engine,
+            "note": f"planner worker {worker:.2f} s (by job: {jobs}), reading and decoding "
+            f"{reader:.2f} s",
+        },
+    ]
+
+
 def run(out_dir: Path) -> list[dict]:
-    return _speed(out_dir) + _overheads(out_dir) + _latency(out_dir)
+    return _speed(out_dir) + _where_the_time_goes(out_dir) + _overheads(out_dir) + _latency(out_dir)

@@ -8,6 +8,7 @@ from flylog.planner import HarmonicPlanner, PlannerConfig
 from flylog.planner import obstacles as obs
 from flylog.planner.grid import GridGeometry
 from flylog.sensors import SonarReading
+from tests.planner.references import box_sum, dense_cells_numpy, seen_free_numpy
 
 # 10 m grid at 0.1 m centred on the origin; the robot at the origin looking along +x.
 CFG = PlannerConfig(
@@ -66,8 +67,8 @@ def test_density_uses_the_window_but_marks_only_cells_with_flies():
     dense = obs.dense_cells(counts, 0.1, 1, 30.0)  # both windows hold 3 flies: 33.3 /m²
     assert dense[3, 3] and dense[3, 4]
     assert np.count_nonzero(dense) == 2
-    assert obs.box_sum(counts, 1)[2, 2] == 2
-    assert obs.box_sum(counts, 1)[0, 0] == 0
+    assert box_sum(counts, 1)[2, 2] == 2
+    assert box_sum(counts, 1)[0, 0] == 0
 
 
 @pytest.mark.parametrize("half_width", [0, 1, 3])
@@ -81,6 +82,22 @@ def test_density_of_a_window_equals_the_whole_grid_s(half_width, rows, cols):
     window = obs.dense_cells(counts, 0.1, half_width, 40.0, rows, cols)
     np.testing.assert_array_equal(window, whole[rows, cols])
     assert whole.any() and not whole.all()
+
+
+@pytest.mark.parametrize("half_width", [0, 1, 3])
+@pytest.mark.parametrize("weighted", [False, True])
+def test_dense_cells_kernel_matches_its_numpy_reference_bit_for_bit(half_width, weighted):
+    rng = np.random.default_rng(half_width)
+    counts = rng.poisson(0.7, (40, 40))
+    if weighted:  # depth weights as the planner's map sums them: float64 in (0, 1]
+        counts = counts * rng.uniform(0.05, 1.0, counts.shape)
+    for rows, cols in ((slice(None), slice(None)), (slice(5, 37), slice(-12, None)),
+                       (slice(0, 3), slice(30, 60)), (slice(9, 9), slice(None))):  # fmt: skip
+        for threshold in (10.0, 40.0, float(np.median(counts)) * 100.0):
+            got = obs.dense_cells(counts, 0.1, half_width, threshold, rows, cols)
+            want = dense_cells_numpy(counts, 0.1, half_width, threshold, rows, cols)
+            assert got.shape == want.shape
+            np.testing.assert_array_equal(got, want)
 
 
 def test_inflation_by_robot_radius_is_a_disk():
@@ -291,3 +308,19 @@ def test_flies_are_mapped_only_as_far_as_the_rig_resolves_depth():
     assert not p.detected_mask.any()
     p.update_obstacles(_cluster(3.55, 0.05, 10), ROBOT, FOV, view_range=reach)
     assert p.detected_mask.any()
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_seen_free_kernel_matches_its_numpy_reference_bit_for_bit(seed):
+    rng = np.random.default_rng(seed)
+    geometry = GridGeometry((-5.0, -5.0), 0.1, 100)
+    pose = Pose2D(rng.uniform(-2, 2), rng.uniform(-2, 2), rng.uniform(-math.pi, math.pi))
+    rows, cols = slice(10, 90), slice(5, 100)
+    ranges, bearing = obs.polar_of_cells(geometry, pose, rows, cols)
+    half_fov, view_range = math.radians(30.0), 4.0
+    in_view = obs.view_mask(ranges, bearing, half_fov, view_range)
+    detected = rng.random(ranges.shape) < 0.02
+    got = obs.seen_free(in_view, detected, ranges, bearing, half_fov, 0.1, view_range)
+    want = seen_free_numpy(in_view, detected, ranges, bearing, half_fov, 0.1, view_range)
+    np.testing.assert_array_equal(got, want)
+    assert got.any() and (in_view & ~got & ~detected).any()  # some cells lie in a shadow

@@ -10,6 +10,7 @@ from flylog.planner import HarmonicPlanner, PlannerConfig
 from flylog.planner.grid import GridGeometry
 from flylog.planner.sonar_free import cone_cells, free_cones
 from flylog.sensors import SonarConfig, SonarReading
+from tests.planner.references import cone_cells_numpy
 from tests.planner.test_map import _passage_flies
 
 GEOMETRY = GridGeometry((-5.0, -5.0), 0.1, 100)
@@ -52,6 +53,24 @@ def test_cone_cells_lie_half_a_cell_inside_the_edges_and_within_the_reach():
     rows, cols = slice(40, 70), slice(45, 80)
     np.testing.assert_array_equal(cone_cells(GEOMETRY, cones, HALF, rows, cols), got[rows, cols])
     assert not cone_cells(GEOMETRY, np.array([[0.0, 0.05, 0.0, -0.1]]), HALF).any()
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_cone_cells_kernel_matches_its_numpy_reference_bit_for_bit(seed):
+    rng = np.random.default_rng(seed)
+    geometry = GridGeometry((rng.uniform(-6, -4), rng.uniform(-6, -4)), 0.1, 100)
+    # six cones round a random pose, some with nothing free; windows partly off the grid
+    pose = Pose2D(rng.uniform(-3, 3), rng.uniform(-3, 3), rng.uniform(-math.pi, math.pi))
+    ranges = rng.uniform(0.05, 3.0, 6)
+    ranges[rng.random(6) < 0.3] = np.nan
+    cones = free_cones(_reading(ranges), pose, 0.15)
+    for rows, cols in ((slice(None), slice(None)), (slice(20, 95), slice(-30, None)),
+                       (slice(90, 130), slice(0, 7)), (slice(50, 40), slice(None))):  # fmt: skip
+        got = cone_cells(geometry, cones, HALF, rows, cols)
+        want = cone_cells_numpy(geometry, cones, HALF, rows, cols)
+        assert got.dtype == want.dtype and got.shape == want.shape
+        np.testing.assert_array_equal(got, want)
+    assert cone_cells(geometry, cones, HALF).any()
 
 
 def _passage_echoes(pose):
