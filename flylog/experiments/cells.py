@@ -8,9 +8,10 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
-from flylog.experiments.common import ExperimentResult
+from flylog.experiments.common import ExperimentOptions, ExperimentResult
 
 
 @dataclass(frozen=True)
@@ -23,6 +24,19 @@ class ExperimentCell:
     work: float  # estimate of its cost (orders the cells, nothing else)
     run: Callable[[Any], Any]
     task: Any
+
+
+@dataclass(frozen=True)
+class SeedTask:
+    """The task of a cell that simulates one seed's log and replays it in the experiment's
+    configurations: its directory, the options, the seed, the log's duration (s) and frame
+    rate (Hz)."""
+
+    here: Path
+    options: ExperimentOptions
+    seed: int
+    duration: float
+    frame_rate: float
 
 
 @dataclass(frozen=True)

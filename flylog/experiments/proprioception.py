@@ -10,7 +10,12 @@ from pathlib import Path
 import numpy as np
 
 from flylog.experiments import plots
-from flylog.experiments.cells import ExperimentCell, ExperimentPlan, log_seconds_work
+from flylog.experiments.cells import (
+    ExperimentCell,
+    ExperimentPlan,
+    SeedTask,
+    log_seconds_work,
+)
 from flylog.experiments.common import (
     Column,
     ExperimentOptions,
@@ -37,17 +42,6 @@ NAME = "proprioception"
 SCENE = "turn"
 FRAME_STEP = 5  # frames N and N + 5, as the paper's figures
 CONFIGS = {"with proprioception": True, "without proprioception": False}
-
-
-@dataclass(frozen=True)
-class _Seed:
-    """A cell: one seed's log, replayed with and without proprioception."""
-
-    here: Path
-    options: ExperimentOptions
-    seed: int
-    duration: float
-    frame_rate: float
 
 
 @dataclass(frozen=True)
@@ -81,7 +75,7 @@ def plan_proprioception(out_dir: Path, options: ExperimentOptions) -> Experiment
             f"{SCENE}, seed {seed}",
             log_seconds_work(duration, len(CONFIGS)),
             _run_seed,
-            _Seed(here, options, seed, duration, frame_rate),
+            SeedTask(here, options, seed, duration, frame_rate),
         )
         for seed in range(options.seeds)
     )
@@ -92,7 +86,7 @@ def plan_proprioception(out_dir: Path, options: ExperimentOptions) -> Experiment
     return ExperimentPlan(NAME, cells, assemble)
 
 
-def _run_seed(task: _Seed) -> _SeedResult:
+def _run_seed(task: SeedTask) -> _SeedResult:
     here, options, seed = task.here, task.options, task.seed
     log = simulate_scene(options, SCENE, seed, here / "runs" / f"turn_s{seed}.mcap", task.duration)
     runs: list[dict] = []

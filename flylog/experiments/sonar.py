@@ -14,7 +14,12 @@ from pathlib import Path
 import numpy as np
 
 from flylog.experiments import plots
-from flylog.experiments.cells import ExperimentCell, ExperimentPlan, log_seconds_work
+from flylog.experiments.cells import (
+    ExperimentCell,
+    ExperimentPlan,
+    SeedTask,
+    log_seconds_work,
+)
 from flylog.experiments.common import (
     Column,
     Count,
@@ -85,17 +90,6 @@ def post_counts(
 
 
 @dataclass(frozen=True)
-class _Seed:
-    """A cell: one seed's log, replayed with and without sonar fusion."""
-
-    here: Path
-    options: ExperimentOptions
-    seed: int
-    duration: float
-    frame_rate: float
-
-
-@dataclass(frozen=True)
 class _Drawn:
     """What the figures need of seed 0, kept after its logs are deleted."""
 
@@ -125,7 +119,7 @@ def plan_sonar(out_dir: Path, options: ExperimentOptions) -> ExperimentPlan:
             f"{SCENE}, seed {seed}",
             log_seconds_work(duration, len(CONFIGS)),
             _run_seed,
-            _Seed(here, options, seed, duration, frame_rate),
+            SeedTask(here, options, seed, duration, frame_rate),
         )
         for seed in range(options.seeds)
     )
@@ -136,7 +130,7 @@ def plan_sonar(out_dir: Path, options: ExperimentOptions) -> ExperimentPlan:
     return ExperimentPlan(NAME, cells, assemble)
 
 
-def _run_seed(task: _Seed) -> _SeedResult:
+def _run_seed(task: SeedTask) -> _SeedResult:
     from flylog.scene.load import load_scene
 
     here, options, seed = task.here, task.options, task.seed
