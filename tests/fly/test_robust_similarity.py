@@ -7,52 +7,26 @@ import pytest
 
 from flylog.fly.config import Gradient, Similarity
 from flylog.fly.fitness import INVALID_FITNESS, fitness_numba, fitness_numpy
-from flylog.geometry import StereoRig
 from tests.benchmarks.bench_real_pair import condition, good_flies, motorcycle, run_flies
+from tests.fly.plain_patches import SMALL, plain_fitness, random_case
 
-SMALL = StereoRig(width=64, height=48, focal_px=50.0, baseline=0.12)
 ROBUST = [Similarity.GAIN_ZSSD, Similarity.CONTRAST_ZNCC]
 
 
-def _random_case(seed, channels, n=300):
-    rng = np.random.default_rng(seed)
-    shape = (SMALL.height, SMALL.width) + ((channels,) if channels > 1 else ())
-    left = rng.integers(0, 128, shape, dtype=np.uint8)
-    right = rng.integers(0, 128, shape, dtype=np.uint8)
-    u = rng.uniform(-10, SMALL.width + 10, n)
-    v = rng.uniform(-10, SMALL.height + 10, n)
-    depth = rng.choice([-1.0, 1.0], n) * rng.uniform(0.05, 10.0, n)
-    return left, right, SMALL.backproject(u, v, depth)
-
-
 def _plain_fitness(left, right, xyz, window, guard, similarity):
-    """A per-fly float loop: Σ‖(L − μL) − g·(R − μR)‖², g = σL/σR, for gain_zssd, and its
-    geometric mean with 32·n·C·(1 − ZNCC) for contrast_zncc."""
-    left = left.reshape(left.shape[0], left.shape[1], -1).astype(np.float64)
-    right = right.reshape(left.shape).astype(np.float64)
-    h = window // 2
-    ul, ur, v, depth = SMALL.project(xyz)
-    out = np.full(len(xyz), INVALID_FITNESS)
-    for i in range(len(xyz)):
-        a, b, r = (int(np.floor(x + 0.5)) for x in (ul[i], ur[i], v[i]))
-        inside = h <= r < SMALL.height - h and all(h <= c < SMALL.width - h for c in (a, b))
-        if depth[i] <= 0 or not inside:
-            continue
-        pl = left[r - h : r + h + 1, a - h : a + h + 1]
-        pr = right[r - h : r + h + 1, b - h : b + h + 1]
-        dl, dr = pl - pl.mean(axis=(0, 1)), pr - pr.mean(axis=(0, 1))
+    """Σ‖(L − μL) − g·(R − μR)‖², g = σL/σR, for gain_zssd, and its geometric mean with
+    32·n·C·(1 − ZNCC) for contrast_zncc, in floats fly by fly."""
+
+    def unlike(dl, dr):
         sl, sr = (dl * dl).sum(), (dr * dr).sum()
         gain = np.sqrt(sl / sr) if sr > 0 else 0.0
-        unlike = ((dl - gain * dr) ** 2).sum() if sr > 0 else 2.0 * sl
+        value = ((dl - gain * dr) ** 2).sum() if sr > 0 else 2.0 * sl
         if similarity is Similarity.CONTRAST_ZNCC:
             zncc = (dl * dr).sum() / np.sqrt(sl * sr) if sl * sr > 0 else 0.0
-            unlike = np.sqrt(unlike * 32.0 * dl.size * (1.0 - zncc))
-        c = pl[h - 1 : h + 2, h - 1 : h + 2]
-        gx = (c[:, 2] - c[:, 0]) * np.array([1, 2, 1])[:, None]
-        gy = (c[2] - c[0]) * np.array([1, 2, 1])[:, None]
-        g = np.sqrt(np.sqrt((gx.sum(axis=0) ** 2 + gy.sum(axis=0) ** 2).sum()))
-        out[i] = g / (guard * dl.size + unlike)
-    return out
+            value = np.sqrt(value * 32.0 * dl.size * (1.0 - zncc))
+        return value
+
+    return plain_fitness(left, right, xyz, window, guard, unlike)
 
 
 @pytest.mark.parametrize("similarity", ROBUST)
@@ -60,7 +34,7 @@ def _plain_fitness(left, right, xyz, window, guard, similarity):
 @pytest.mark.parametrize("channels", [1, 3, 5])
 @pytest.mark.parametrize("window", [3, 7, 11])
 def test_kernel_equals_numpy_reference(similarity, gradient, channels, window):
-    left, right, xyz = _random_case(window * 10 + channels, channels)
+    left, right, xyz = random_case(window * 10 + channels, channels)
     want = fitness_numpy(left, right, xyz, SMALL, window, 1.0, gradient=gradient,
                          similarity=similarity)  # fmt: skip
     assert (want > 0).sum() > 20
@@ -75,7 +49,7 @@ def test_kernel_equals_numpy_reference(similarity, gradient, channels, window):
 @pytest.mark.parametrize("similarity", ROBUST)
 @pytest.mark.parametrize("channels", [1, 3])
 def test_reference_equals_plain_formula(similarity, channels):
-    left, right, xyz = _random_case(7, channels)
+    left, right, xyz = random_case(7, channels)
     want = _plain_fitness(left, right, xyz, 7, 1.0, similarity)
     got = fitness_numpy(left, right, xyz, SMALL, 7, 1.0, similarity=similarity)
     np.testing.assert_array_equal(got == INVALID_FITNESS, want == INVALID_FITNESS)
@@ -86,7 +60,7 @@ def test_reference_equals_plain_formula(similarity, channels):
 def test_fitness_ignores_gain_and_offset_of_the_right_image(similarity):
     # Whole pixels, below 128: 2·R + 1 stays in uint8 with no clipping, and a power-of-two
     # gain scales the sums exactly (interpolated pixels round: the same within 1/256).
-    left, right, xyz = _random_case(3, 3)
+    left, right, xyz = random_case(3, 3)
     brighter = (2 * right.astype(np.int64) + 1).astype(np.uint8)
     kw = {"similarity": similarity, "subpixel": False}
     base = fitness_numba(left, right, xyz, SMALL, 7, 1.0, **kw)

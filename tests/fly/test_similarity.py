@@ -15,54 +15,27 @@ from flylog.fly.fitness_terms import (
     windows_into,
     zssd_lanes,
 )
-from flylog.geometry import StereoRig
+from tests.fly.plain_patches import SMALL, plain_fitness, random_case
 
-SMALL = StereoRig(width=64, height=48, focal_px=50.0, baseline=0.12)
 ZNCC = Similarity.ZNCC
 
 
-def _random_case(seed, channels, n=300):
-    rng = np.random.default_rng(seed)
-    shape = (SMALL.height, SMALL.width) + ((channels,) if channels > 1 else ())
-    left = rng.integers(0, 128, shape, dtype=np.uint8)
-    right = rng.integers(0, 128, shape, dtype=np.uint8)
-    u = rng.uniform(-10, SMALL.width + 10, n)
-    v = rng.uniform(-10, SMALL.height + 10, n)
-    depth = rng.choice([-1.0, 1.0], n) * rng.uniform(0.05, 10.0, n)
-    return left, right, SMALL.backproject(u, v, depth)
+def _zncc_unlike(dl, dr):
+    """The module docstring's formula, independent of the integer sums."""
+    norm = np.sqrt((dl * dl).sum() * (dr * dr).sum())
+    zncc = (dl * dr).sum() / norm if norm > 0 else 0.0
+    return dl.size * NCC_SCALE * (1.0 - zncc)
 
 
 def _plain_zncc_fitness(left, right, xyz, window, guard):
-    """A per-fly float loop, independent of the integer sums: the module docstring's formula."""
-    left = left.reshape(left.shape[0], left.shape[1], -1).astype(np.float64)
-    right = right.reshape(left.shape).astype(np.float64)
-    h = window // 2
-    ul, ur, v, depth = SMALL.project(xyz)
-    out = np.full(len(xyz), INVALID_FITNESS)
-    for i in range(len(xyz)):
-        a, b, r = (int(np.floor(x + 0.5)) for x in (ul[i], ur[i], v[i]))
-        inside = h <= r < SMALL.height - h and all(h <= c < SMALL.width - h for c in (a, b))
-        if depth[i] <= 0 or not inside:
-            continue
-        pl = left[r - h : r + h + 1, a - h : a + h + 1]
-        pr = right[r - h : r + h + 1, b - h : b + h + 1]
-        dl, dr = pl - pl.mean(axis=(0, 1)), pr - pr.mean(axis=(0, 1))
-        norm = np.sqrt((dl * dl).sum() * (dr * dr).sum())
-        zncc = (dl * dr).sum() / norm if norm > 0 else 0.0
-        c = pl[r - r + h - 1 : h + 2, h - 1 : h + 2]
-        gx = (c[:, 2] - c[:, 0]) * np.array([1, 2, 1])[:, None]
-        gy = (c[2] - c[0]) * np.array([1, 2, 1])[:, None]
-        g = np.sqrt(np.sqrt((gx.sum(axis=0) ** 2 + gy.sum(axis=0) ** 2).sum()))
-        n = window * window * pl.shape[2]
-        out[i] = g / (n * (guard + NCC_SCALE * (1.0 - zncc)))
-    return out
+    return plain_fitness(left, right, xyz, window, guard, _zncc_unlike)
 
 
 @pytest.mark.parametrize("gradient", list(Gradient))
 @pytest.mark.parametrize("channels", [1, 3, 5])
 @pytest.mark.parametrize("window", [3, 7, 11])
 def test_zncc_kernel_equals_numpy_reference(gradient, channels, window):
-    left, right, xyz = _random_case(window * 10 + channels, channels)
+    left, right, xyz = random_case(window * 10 + channels, channels)
     want = fitness_numpy(left, right, xyz, SMALL, window, 1.0, gradient=gradient, similarity=ZNCC)
     assert (want > 0).sum() > 20
     for parallel_min in (0, 10**9):
@@ -75,7 +48,7 @@ def test_zncc_kernel_equals_numpy_reference(gradient, channels, window):
 
 @pytest.mark.parametrize("channels", [1, 3])
 def test_zncc_reference_equals_plain_formula(channels):
-    left, right, xyz = _random_case(7, channels)
+    left, right, xyz = random_case(7, channels)
     want = _plain_zncc_fitness(left, right, xyz, 7, 1.0)
     got = fitness_numpy(left, right, xyz, SMALL, 7, 1.0, similarity=ZNCC)
     np.testing.assert_array_equal(got == INVALID_FITNESS, want == INVALID_FITNESS)
@@ -86,7 +59,7 @@ def test_zncc_reference_equals_plain_formula(channels):
 def test_zncc_fitness_ignores_gain_and_offset_of_the_right_image(channels):
     # Pixels below 128: 2·R + 1 stays in uint8 with no clipping, and the ZNCC is the same
     # float to the last bit (a power-of-two gain scales the sums exactly).
-    left, right, xyz = _random_case(3, channels)
+    left, right, xyz = random_case(3, channels)
     brighter = (2 * right.astype(np.int64) + 1).astype(np.uint8)
     base = fitness_numba(left, right, xyz, SMALL, 7, 1.0, similarity=ZNCC)
     lit = fitness_numba(left, brighter, xyz, SMALL, 7, 1.0, similarity=ZNCC)
@@ -112,7 +85,7 @@ def test_zncc_perfect_match_is_the_guard_and_flat_patch_scores_zero():
 @pytest.mark.parametrize("channels", [1, 3, 5])
 @pytest.mark.parametrize("window", [3, 7, 11])
 def test_subpixel_kernel_equals_numpy_reference(similarity, channels, window):
-    left, right, xyz = _random_case(window + channels, channels)
+    left, right, xyz = random_case(window + channels, channels)
     want = fitness_numpy(left, right, xyz, SMALL, window, 1.0, similarity=similarity, subpixel=True)
     assert (want > 0).sum() > 20
     for parallel_min in (0, 10**9):
