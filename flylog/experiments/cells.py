@@ -7,7 +7,7 @@ in which order the cells run does not change what the experiment writes."""
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -37,6 +37,23 @@ class SeedTask:
     seed: int
     duration: float
     frame_rate: float
+
+
+def seed_cells(
+    experiment: str,
+    scene: str,
+    task: SeedTask,
+    seeds: int,
+    engine_runs: int,
+    run: Callable[[SeedTask], Any],
+) -> tuple[ExperimentCell, ...]:
+    """One cell a seed 0…seeds−1, each running ``run`` on ``task`` with its seed: a log of
+    ``scene`` simulated once and replayed ``engine_runs`` times."""
+    work = log_seconds_work(task.duration, engine_runs)
+    return tuple(
+        ExperimentCell(experiment, f"{scene}, seed {seed}", work, run, replace(task, seed=seed))
+        for seed in range(seeds)
+    )
 
 
 @dataclass(frozen=True)

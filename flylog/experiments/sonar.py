@@ -15,10 +15,9 @@ import numpy as np
 
 from flylog.experiments import plots
 from flylog.experiments.cells import (
-    ExperimentCell,
     ExperimentPlan,
     SeedTask,
-    log_seconds_work,
+    seed_cells,
 )
 from flylog.experiments.common import (
     Column,
@@ -113,16 +112,8 @@ def plan_sonar(out_dir: Path, options: ExperimentOptions) -> ExperimentPlan:
     scene = load_scene(options.scene_path(SCENE))
     duration = options.duration_or(scene.spec.duration or 5.0)
     frame_rate = scene.spec.camera.frame_rate
-    cells = tuple(
-        ExperimentCell(
-            NAME,
-            f"{SCENE}, seed {seed}",
-            log_seconds_work(duration, len(CONFIGS)),
-            _run_seed,
-            SeedTask(here, options, seed, duration, frame_rate),
-        )
-        for seed in range(options.seeds)
-    )
+    task = SeedTask(here, options, 0, duration, frame_rate)
+    cells = seed_cells(NAME, SCENE, task, options.seeds, len(CONFIGS), _run_seed)
 
     def assemble(results: list[_SeedResult]) -> ExperimentResult:
         return _finish(here, options, scene, duration, results)
