@@ -60,6 +60,20 @@ def raise_if_stopped() -> None:
         raise Terminated(_received[0])
 
 
+def _unraisable_but_stops(previous: Callable[[Any], object]) -> Callable[[Any], None]:
+    """An unraisable-exception hook that says nothing of a dropped Terminated (recorded in
+    ``_received``, raised again at the next progress update) and passes the rest on: Python
+    reports an exception it drops (in a finaliser, or in a ctypes callback such as numba's
+    object cache notifying a compiled kernel) with a traceback on stderr, where the command
+    prints one line."""
+
+    def hook(unraisable: Any) -> None:
+        if not isinstance(unraisable.exc_value, Terminated):
+            previous(unraisable)
+
+    return hook
+
+
 @contextmanager
 def stop_signals_interrupt() -> Iterator[None]:
     """Within the block, SIGTERM and SIGHUP raise Terminated in the main thread."""
@@ -68,9 +82,12 @@ def stop_signals_interrupt() -> Iterator[None]:
         return
     _received.clear()
     previous = {s: signal.signal(s, _on_stop_signal) for s in STOP_SIGNALS}
+    previous_hook = sys.unraisablehook
+    sys.unraisablehook = _unraisable_but_stops(previous_hook)
     try:
         yield
     finally:
+        sys.unraisablehook = previous_hook
         for s, handler in previous.items():
             signal.signal(s, handler)
 
