@@ -1,11 +1,12 @@
-"""engine.similarity = gain_zssd and contrast_zncc: the compiled kernels against the numpy
-reference and a plain float formula, their invariance to a gain and an offset of the right
-image, and contrast_zncc on the real motorcycle pair (scikit-image)."""
+"""engine.similarity = gain_zssd and contrast_zncc: the numpy reference against a plain float
+formula (the compiled kernels against the reference are in test_similarity.py), their
+invariance to a gain and an offset of the right image, and contrast_zncc on the real
+motorcycle pair (scikit-image)."""
 
 import numpy as np
 import pytest
 
-from flylog.fly.config import Gradient, Similarity
+from flylog.fly.config import Similarity
 from flylog.fly.fitness import INVALID_FITNESS, fitness_numba, fitness_numpy
 from tests.benchmarks.bench_real_pair import condition, good_flies, motorcycle, run_flies
 from tests.fly.plain_patches import SMALL, plain_fitness, random_case
@@ -27,23 +28,6 @@ def _plain_fitness(left, right, xyz, window, guard, similarity):
         return value
 
     return plain_fitness(left, right, xyz, window, guard, unlike)
-
-
-@pytest.mark.parametrize("similarity", ROBUST)
-@pytest.mark.parametrize("gradient", list(Gradient))
-@pytest.mark.parametrize("channels", [1, 3, 5])
-@pytest.mark.parametrize("window", [3, 7, 11])
-def test_kernel_equals_numpy_reference(similarity, gradient, channels, window):
-    left, right, xyz = random_case(window * 10 + channels, channels)
-    want = fitness_numpy(left, right, xyz, SMALL, window, 1.0, gradient=gradient,
-                         similarity=similarity)  # fmt: skip
-    assert (want > 0).sum() > 20
-    for parallel_min in (0, 10**9):
-        got = fitness_numba(
-            left, right, xyz, SMALL, window, 1.0, gradient=gradient, similarity=similarity,
-            parallel_min=parallel_min,
-        )  # fmt: skip
-        np.testing.assert_array_equal(got, want)
 
 
 @pytest.mark.parametrize("similarity", ROBUST)

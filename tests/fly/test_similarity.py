@@ -31,16 +31,19 @@ def _plain_zncc_fitness(left, right, xyz, window, guard):
     return plain_fitness(left, right, xyz, window, guard, _zncc_unlike)
 
 
+@pytest.mark.parametrize("similarity", [ZNCC, Similarity.GAIN_ZSSD, Similarity.CONTRAST_ZNCC])
 @pytest.mark.parametrize("gradient", list(Gradient))
 @pytest.mark.parametrize("channels", [1, 3, 5])
 @pytest.mark.parametrize("window", [3, 7, 11])
-def test_zncc_kernel_equals_numpy_reference(gradient, channels, window):
+def test_normalised_kernels_equal_numpy_reference(similarity, gradient, channels, window):
+    """The measures on ZNCC's sums (zncc, gain_zssd, contrast_zncc), compiled against numpy."""
     left, right, xyz = random_case(window * 10 + channels, channels)
-    want = fitness_numpy(left, right, xyz, SMALL, window, 1.0, gradient=gradient, similarity=ZNCC)
+    want = fitness_numpy(left, right, xyz, SMALL, window, 1.0, gradient=gradient,
+                         similarity=similarity)  # fmt: skip
     assert (want > 0).sum() > 20
     for parallel_min in (0, 10**9):
         got = fitness_numba(
-            left, right, xyz, SMALL, window, 1.0, gradient=gradient, similarity=ZNCC,
+            left, right, xyz, SMALL, window, 1.0, gradient=gradient, similarity=similarity,
             parallel_min=parallel_min,
         )  # fmt: skip
         np.testing.assert_array_equal(got, want)
