@@ -1,6 +1,6 @@
 """Where a sweep's work runs: a local process pool, or Ray tasks on a local or remote
 cluster. Both take a top-level function and its arguments (picklable), run each call in a
-worker process that has run :func:`flylog.sweep.warm.warm_up` once, and yield
+worker process that has run :func:`flylog.sweep.warm.start_worker` once, and yield
 ``(index, result)`` as calls finish, in any order; ``running`` is how many calls are being
 worked on at the moment. A call whose worker process died (killed, out of memory, a crash
 in compiled code) gives ``lost(index, message)`` when the caller passes ``lost``; without
@@ -18,7 +18,7 @@ from collections.abc import Callable, Iterator, Sequence
 from typing import Any, Protocol, TypeVar
 
 from flylog.errors import ConfigError, FlylogError
-from flylog.sweep.warm import warm_up
+from flylog.sweep.warm import start_worker
 
 A = TypeVar("A")
 R = TypeVar("R")
@@ -66,7 +66,7 @@ class Executor(Protocol):
 
 
 def _warmed_call(fn: Callable[[A], R], item: A, numba_threads: int) -> R:
-    warm_up(numba_threads)
+    start_worker(numba_threads)
     return fn(item)
 
 
@@ -77,7 +77,7 @@ def _plain_call(fn: Callable[[A], R], item: A, numba_threads: int) -> R:
 class ProcessPool:
     """``workers`` processes (spawned: fresh interpreters, as Ray's workers are), each with
     ``numba_threads`` numba threads (1 by default: the workers already fill the cores);
-    ``warm``: each runs :func:`~flylog.sweep.warm.warm_up` first."""
+    ``warm``: each runs :func:`~flylog.sweep.warm.start_worker` first."""
 
     def __init__(self, workers: int, *, numba_threads: int = 1, warm: bool = True) -> None:
         self.workers = workers
@@ -96,7 +96,7 @@ class ProcessPool:
         return ProcessPoolExecutor(
             max_workers=self.workers,
             mp_context=context,
-            initializer=warm_up,
+            initializer=start_worker,
             initargs=(self._threads,),
         )
 

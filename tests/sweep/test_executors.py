@@ -1,5 +1,6 @@
 from __future__ import annotations
 
+import gc
 import os
 
 from flylog.sweep.executors import ProcessPool
@@ -20,3 +21,16 @@ def test_a_dead_worker_gives_lost_results_and_the_pool_starts_again() -> None:
         assert dict(pool.map_unordered(exit_on_one, [0, 2])) == {0: 0, 1: 20}
     finally:
         pool.close()
+
+
+def frozen_objects(_: int) -> int:
+    return gc.get_freeze_count()
+
+
+def test_a_warmed_worker_leaves_what_it_loaded_out_of_garbage_collections() -> None:
+    pool = ProcessPool(1)
+    try:
+        [(_, frozen)] = list(pool.map_unordered(frozen_objects, [0]))
+    finally:
+        pool.close()
+    assert frozen > 50_000  # modules, numba's registries and kernels: ~134 000
