@@ -60,7 +60,7 @@ VISIBLE_PIXELS = 400  # an obstacle has entered the view when this many left pix
 _MEMORY_CHILD = """
 import resource, sys
 from pathlib import Path
-from flylog.cli.main import hand_the_gil_back_sooner, keep_large_blocks
+from flylog.process import hand_the_gil_back_sooner, keep_large_blocks
 keep_large_blocks()  # as the CLI does
 hand_the_gil_back_sooner()
 from flylog.replay.config import ReplayConfig
@@ -91,7 +91,7 @@ def _peak_rss_mb(log: Path, out: Path) -> float:
 
 
 def _speed(out_dir: Path) -> list[dict]:
-    from flylog.cli.main import hand_the_gil_back_sooner, keep_large_blocks
+    from flylog.process import hand_the_gil_back_sooner, keep_large_blocks
 
     keep_large_blocks()  # the process as `flylog replay` sets it up
     hand_the_gil_back_sooner()
@@ -205,7 +205,7 @@ REPEATS = 5
 _READ_CHILD = """
 import resource, sys
 if sys.argv[2] == "tuned":
-    from flylog.cli.main import keep_large_blocks
+    from flylog.process import keep_large_blocks
     assert keep_large_blocks()
 from flylog.io import open_log
 from flylog.replay.inputs import SENSOR_TOPICS

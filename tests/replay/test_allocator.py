@@ -1,4 +1,5 @@
-"""The CLI's allocator setting: the buffers of log reading are reused, not faulted in anew."""
+"""The allocator setting of the processes flylog owns (the command, the sweep's workers): the
+buffers of log reading are reused, not faulted in anew."""
 
 from __future__ import annotations
 
@@ -9,8 +10,8 @@ import sys
 import numpy as np
 import pytest
 
-from flylog.cli.main import keep_large_blocks
 from flylog.io import LogWriter, contract, encode
+from flylog.process import keep_large_blocks
 
 GLIBC = sys.platform.startswith("linux") and platform.libc_ver()[0] == "glibc"
 
@@ -19,7 +20,7 @@ GLIBC = sys.platform.startswith("linux") and platform.libc_ver()[0] == "glibc"
 _READ = """
 import resource, sys
 if sys.argv[2] == "tuned":
-    from flylog.cli.main import keep_large_blocks
+    from flylog.process import keep_large_blocks
     assert keep_large_blocks()
 from flylog.io import open_log
 def read():

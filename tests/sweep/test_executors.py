@@ -2,7 +2,9 @@ from __future__ import annotations
 
 import gc
 import os
+import sys
 
+from flylog.process import GIL_SWITCH_INTERVAL
 from flylog.sweep.executors import ProcessPool
 
 
@@ -23,14 +25,15 @@ def test_a_dead_worker_gives_lost_results_and_the_pool_starts_again() -> None:
         pool.close()
 
 
-def frozen_objects(_: int) -> int:
-    return gc.get_freeze_count()
+def worker_state(_: int) -> tuple[int, float]:
+    return gc.get_freeze_count(), sys.getswitchinterval()
 
 
-def test_a_warmed_worker_leaves_what_it_loaded_out_of_garbage_collections() -> None:
+def test_a_warmed_worker_runs_as_the_command_does_its_start_left_out_of_collections() -> None:
     pool = ProcessPool(1)
     try:
-        [(_, frozen)] = list(pool.map_unordered(frozen_objects, [0]))
+        [(_, (frozen, switch))] = list(pool.map_unordered(worker_state, [0]))
     finally:
         pool.close()
+    assert switch == GIL_SWITCH_INTERVAL  # flylog.process.own_process, as `flylog` sets it
     assert frozen > 50_000  # modules, numba's registries and kernels: ~134 000
