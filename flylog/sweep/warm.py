@@ -44,7 +44,7 @@ _WARM_RESOLUTION = (48, 36)
 # not per size or value): 64 flies, one generation a frame (on the virtual clock 64 flies
 # would otherwise run ~23 000 generations in 0.2 s of log, 1.2 s of Python calls), and a
 # planner grid of 8 m (80×80 cells instead of 200×200) whose warm start stops at 200 sweeps
-# (the default's 5000 relaxed the warm-up's two fields for 0.2 s).
+# (with the default's 5000 the warm-up relaxes its two fields for 0.2 s).
 _WARM_SETTINGS = {
     "engine.flies": 64,
     "generations_per_frame": 1,

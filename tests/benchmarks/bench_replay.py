@@ -60,9 +60,8 @@ VISIBLE_PIXELS = 400  # an obstacle has entered the view when this many left pix
 _MEMORY_CHILD = """
 import resource, sys
 from pathlib import Path
-from flylog.process import hand_the_gil_back_sooner, keep_large_blocks
-keep_large_blocks()  # as the CLI does
-hand_the_gil_back_sooner()
+from flylog.process import own_process
+own_process()  # as the CLI does
 from flylog.replay.config import ReplayConfig
 from flylog.replay.run import replay
 replay(Path(sys.argv[1]), Path(sys.argv[2]), ReplayConfig(generations_per_frame=10))
@@ -91,10 +90,9 @@ def _peak_rss_mb(log: Path, out: Path) -> float:
 
 
 def _speed(out_dir: Path) -> list[dict]:
-    from flylog.process import hand_the_gil_back_sooner, keep_large_blocks
+    from flylog.process import own_process
 
-    keep_large_blocks()  # the process as `flylog replay` sets it up
-    hand_the_gil_back_sooner()
+    own_process()  # the process as `flylog replay` sets it up
     log = reference_log(out_dir)
     replay(_log(out_dir, "corridor", 1.0), out_dir / "bench_replay_warm.mcap", REFERENCE)
     summary = replay(log, out_dir / "bench_replay_run.mcap", REFERENCE)
@@ -369,7 +367,7 @@ def _run_log_compression(run: Path, out_dir: Path) -> list[dict]:
 
 def _reading_allocator(log: Path) -> list[dict]:
     """Reading the reference log's sensor topics with glibc's default malloc thresholds and
-    with the CLI's (flylog.cli.main.keep_large_blocks), in child processes, interleaved."""
+    with the CLI's (flylog.process.keep_large_blocks), in child processes, interleaved."""
     best = {"default": (math.inf, 0), "tuned": (math.inf, 0)}
     for _ in range(3):
         for mode in best:
