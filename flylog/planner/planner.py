@@ -189,8 +189,9 @@ class HarmonicPlanner:
 
     # ----------------------------------------------------------------- relaxation
 
-    def relax(self, sweeps: int | None = None) -> float:
-        """Run ``sweeps`` SOR sweeps; return the largest change of the last sweep.
+    def relax(self, sweeps: int | None = None, omega: float | None = None) -> float:
+        """Run ``sweeps`` SOR sweeps (``omega``: planner.omega if None); return the largest
+        change of the last sweep.
 
         By default (a planner tick): ``sweeps_per_tick`` sweeps, then more in chunks of as
         many while the last sweep still changed a cell by more than ``relax_tolerance``, up
@@ -203,23 +204,25 @@ class HarmonicPlanner:
             msg = f"sweeps must be at least 0, got {n}"
             raise ValueError(msg)
         self._grad_cache = self._field_cache = None
-        change = self._sweep(n)
+        change = self._sweep(n, omega)
         if sweeps is not None:
             return change
         done = n
         while change > cfg.relax_tolerance and done < cfg.max_sweeps_per_tick:
             more = min(n, cfg.max_sweeps_per_tick - done)
-            change = self._sweep(more)
+            change = self._sweep(more, omega)
             done += more
         return change
 
-    def relax_until(self, tolerance: float, max_sweeps: int, chunk: int = 10) -> RelaxResult:
+    def relax_until(
+        self, tolerance: float, max_sweeps: int, chunk: int = 10, omega: float | None = None
+    ) -> RelaxResult:
         """Sweep in chunks until the last sweep's largest change is at most ``tolerance`` or
         ``max_sweeps`` are spent (for tests, warm starts and benchmarks; ticks use relax)."""
         done, change = 0, math.inf
         while done < max_sweeps:
             n = min(chunk, max_sweeps - done)
-            change = self.relax(n)
+            change = self.relax(n, omega)
             done += n
             if change <= tolerance:
                 return RelaxResult(done, change, RelaxEnd.CONVERGED)
@@ -377,9 +380,10 @@ class HarmonicPlanner:
         self._weighted = weighted
         self._grad_cache = self._field_cache = None
 
-    def _sweep(self, n: int) -> float:
+    def _sweep(self, n: int, omega: float | None = None) -> float:
         cfg = self.config
-        return sor_sweeps(self._u, self._fixed, cfg.omega, n, cfg.relaxation, self._factor)
+        w = cfg.omega if omega is None else omega
+        return sor_sweeps(self._u, self._fixed, w, n, cfg.relaxation, self._factor)
 
     def _field(self) -> np.ndarray:
         """U itself: the relaxed state with the obstacle cells' own values (the state holds

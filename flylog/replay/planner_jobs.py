@@ -84,9 +84,12 @@ class PlannerJobs:
         self._evidence = Evidence(config.obstacles, rig, config.engine)
 
     def warm_start(self) -> Outputs:
-        """Relax the obstacle-free field before the first tick (planner.warm_start_sweeps)."""
+        """Relax the obstacle-free field before the first tick (planner.warm_start_sweeps, at
+        the grid's optimal over-relaxation: planner.warm_start_omega)."""
         cfg = self.config.planner
-        self.planner.relax_until(cfg.relax_tolerance, cfg.warm_start_sweeps, chunk=100)
+        self.planner.relax_until(
+            cfg.relax_tolerance, cfg.warm_start_sweeps, chunk=100, omega=cfg.warm_start_omega
+        )
         return Outputs([])
 
     def tick(self, tick: TickInputs) -> Outputs:

@@ -55,6 +55,23 @@ def test_relax_keeps_values_between_ticks_and_converges():
     assert p.relax_until(0.0, 7).sweeps == 7
 
 
+def test_the_warm_starts_optimal_over_relaxation_settles_the_field_in_a_quarter_of_the_sweeps():
+    cfg = PlannerConfig()  # 200×200, the replay's grid
+    assert cfg.warm_start_omega == pytest.approx(1.9689, abs=1e-4)
+    points = [(x, y) for x in np.linspace(-9.0, 9.0, 13) for y in np.linspace(-9.0, 9.0, 13)]
+    runs = []
+    for omega, tolerance in ((cfg.omega, 1e-10), (cfg.warm_start_omega, 1e-10), (None, 1e-14)):
+        p = HarmonicPlanner.centred_on(cfg, (0.0, 0.0), (6.0, 0.0))
+        w = cfg.warm_start_omega if omega is None else omega  # None: the field itself
+        result = p.relax_until(tolerance, 50_000, chunk=100, omega=w)
+        runs.append((result, np.array([p.value(x, y) for x, y in points])))
+    (slow, u_slow), (fast, u_fast), (_, u) = runs
+    assert slow.end is fast.end is RelaxEnd.CONVERGED
+    assert (slow.sweeps, fast.sweeps) == (3100, 700)
+    # both within the tolerance's reach of the field; the faster one the nearer
+    assert np.abs(u_fast - u).max() < np.abs(u_slow - u).max() < 1e-7
+
+
 def test_a_tick_keeps_relaxing_until_the_tolerance_or_the_sweep_bound():
     def planner(**changes):
         cfg = PlannerConfig(**{**SMALL.__dict__, "sweeps_per_tick": 10, **changes})
