@@ -284,12 +284,3 @@ def ncc_sums_numpy(patch_l: np.ndarray, patch_r: np.ndarray):
     vl = (n * a2 - a1 * a1).sum(axis=1)
     vr = (n * b2 - b1 * b1).sum(axis=1)
     return cov, vl, vr
-
-
-def zncc_numpy(patch_l: np.ndarray, patch_r: np.ndarray) -> np.ndarray:
-    """Reference: ZNCC of (M, w, w, C) int64 patch pairs, the compiled kernel's arithmetic."""
-    cov, vl, vr = ncc_sums_numpy(patch_l, patch_r)
-    product = vl.astype(np.float64) * vr.astype(np.float64)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        zncc = cov / np.sqrt(product)
-    return np.where(product > 0.0, zncc, 0.0)
