@@ -9,7 +9,7 @@ from pathlib import Path
 
 import click
 
-from flylog.cli.common import reports_errors, stderr, stdout
+from flylog.cli.common import OutputPath, reports_errors, stderr, stdout
 
 EXIT_REGRESSION = 1
 
@@ -67,7 +67,7 @@ def _pm(mean: float, std: float, n: int) -> str:
 @click.option(
     "--junit",
     "junit_file",
-    type=click.Path(dir_okay=False, path_type=Path),
+    type=OutputPath(dir_okay=False, path_type=Path),
     default=None,
     metavar="FILE",
     help="Also write JUnit XML to FILE: one test case per metric, a failure per "

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from flylog.cli.common import Finite, progress_bar, reports_errors, resolution, stdout
+from flylog.cli.common import Finite, OutputPath, progress_bar, reports_errors, resolution, stdout
 
 QUICK_RESOLUTION = (160, 120)
 QUICK_SEEDS = 2
@@ -18,7 +18,7 @@ DEFAULT_SEEDS = 5
 @click.option(
     "-o",
     "--output",
-    type=click.Path(file_okay=False, path_type=Path),
+    type=OutputPath(file_okay=False, path_type=Path),
     default=Path("experiments-out"),
     show_default=True,
     help="Directory to write into: each experiment writes DIR/NAME/summary.md (its table "

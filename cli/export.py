@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from flylog.cli.common import progress_bar, reports_errors, stdout
+from flylog.cli.common import OutputPath, progress_bar, reports_errors, stdout
 
 
 @click.command()
@@ -15,7 +15,7 @@ from flylog.cli.common import progress_bar, reports_errors, stdout
 @click.option(
     "--tum",
     "out_dir",
-    type=click.Path(file_okay=False, path_type=Path),
+    type=OutputPath(file_okay=False, path_type=Path),
     default=None,
     metavar="OUTDIR",
     help="Write true.tum, odom.tum and planned.tum (those SOURCE holds) into OUTDIR.",
@@ -23,7 +23,7 @@ from flylog.cli.common import progress_bar, reports_errors, stdout
 @click.option(
     "--ros2",
     "ros2_dir",
-    type=click.Path(path_type=Path),
+    type=OutputPath(path_type=Path),
     default=None,
     metavar="OUT",
     help="Write the sensor log SOURCE as the rosbag2 directory OUT (MCAP storage, standard "

@@ -8,7 +8,7 @@ from typing import Any
 
 import click
 
-from flylog.cli.common import Finite, progress_bar, reports_errors, stdout
+from flylog.cli.common import Finite, OutputPath, progress_bar, reports_errors, stdout
 
 _SHOWN = (
     ("snapshots", "fly snapshots", ""),
@@ -83,7 +83,7 @@ def _fmt(value: Any) -> str:
 @click.option(
     "-o",
     "--output",
-    type=click.Path(dir_okay=False, path_type=Path),
+    type=OutputPath(dir_okay=False, path_type=Path),
     required=True,
     help="Per-snapshot table NAME.parquet; NAME.summary.parquet (one row) and "
     "NAME.obstacles.parquet are written beside it.",

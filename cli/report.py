@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from flylog.cli.common import reports_errors, stdout
+from flylog.cli.common import OutputPath, reports_errors, stdout
 
 
 @click.command()
@@ -32,7 +32,7 @@ from flylog.cli.common import reports_errors, stdout
 @click.option(
     "-o",
     "--output",
-    type=click.Path(dir_okay=False, path_type=Path),
+    type=OutputPath(dir_okay=False, path_type=Path),
     required=True,
     help="REPORT.html to write (atomically), one self-contained file: images embedded, "
     "nothing fetched from a network.",

@@ -8,6 +8,7 @@ import click
 
 from flylog.cli.common import (
     Finite,
+    OutputPath,
     human_bytes,
     limit_options,
     principal_point,
@@ -24,7 +25,7 @@ from flylog.geometry.stereo import MAX_FRAME_RATE
 @click.option(
     "-o",
     "--output",
-    type=click.Path(dir_okay=False, path_type=Path),
+    type=OutputPath(dir_okay=False, path_type=Path),
     required=True,
     help="Where to write the MCAP log (written atomically: nothing appears there on failure).",
 )

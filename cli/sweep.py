@@ -11,7 +11,7 @@ from typing import Any
 
 import click
 
-from flylog.cli.common import EXIT_INTERRUPTED, reports_errors, stderr, stdout
+from flylog.cli.common import EXIT_INTERRUPTED, OutputPath, reports_errors, stderr, stdout
 
 EXIT_FAILED_CELLS = 1
 
@@ -64,7 +64,7 @@ def _pm(mean: float, sd: float, n: int) -> str:
 @click.option(
     "-o",
     "--output",
-    type=click.Path(file_okay=False, path_type=Path),
+    type=OutputPath(file_okay=False, path_type=Path),
     required=True,
     help="Directory of the sweep: results.parquet (one row per cell), runs/ (each cell's "
     "run, its table and metrics), inputs/ (simulated logs). Running again into the same "

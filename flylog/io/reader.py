@@ -25,6 +25,7 @@ from flylog.io import contract
 from flylog.io.chunks import indexed_messages
 from flylog.io.decoding import Decoding, schema_name
 from flylog.io.indexed import indexed_attachments, indexed_metadata
+from flylog.io.inputs import open_input
 from flylog.io.pairing import pair_stereo
 from flylog.io.readahead import read_ahead as read_ahead_of
 from flylog.io.records import LogAttachment, LogMessage, TopicInfo
@@ -44,7 +45,7 @@ def open_log(path: str | os.PathLike[str]) -> LogReader:
     """Open an MCAP log for reading; LogError if it is missing or not MCAP."""
     path = Path(path)
     try:
-        with path.open("rb") as fh:
+        with open_input(path, "the log") as fh:
             magic = fh.read(len(MAGIC))
             checked = read_checked_summary(fh) if magic == MAGIC else None
     except FileNotFoundError:
@@ -119,7 +120,7 @@ class LogReader:
             counts: dict[str, int] = {}
             schemas: dict[str, str] = {}
             lo, hi = None, 0
-            with self.path.open("rb") as fh, _reading(self.path, "the data section"):
+            with open_input(self.path, "the log") as fh, _reading(self.path, "the data section"):
                 for raw in scan_messages(fh, state):
                     topic = raw.channel.topic
                     counts[topic] = counts.get(topic, 0) + 1
@@ -228,7 +229,7 @@ class LogReader:
         if self._summary is None:
             found = self._scanned().attachments
         else:
-            with self.path.open("rb") as fh, _reading(self.path, "an attachment"):
+            with open_input(self.path, "the log") as fh, _reading(self.path, "an attachment"):
                 found, skipped = indexed_attachments(
                     fh, self._summary, self._checked.shift, require_crcs=self._require_crcs
                 )
@@ -244,7 +245,10 @@ class LogReader:
             found = self._scanned().metadata
         else:
             if self._metadata is None:  # a few small records, asked for by several readers
-                with self.path.open("rb") as fh, _reading(self.path, "a metadata record"):
+                with (
+                    open_input(self.path, "the log") as fh,
+                    _reading(self.path, "a metadata record"),
+                ):
                     self._metadata, skipped = indexed_metadata(
                         fh, self._summary, self._checked.shift
                     )
@@ -271,7 +275,7 @@ class LogReader:
         """:meth:`raw_messages` that appends the damage report to ``damage`` instead of
         warning (warnings are process-wide: a reading thread must not issue them)."""
         wanted = None if topics is None else frozenset(topics)
-        with self.path.open("rb") as fh:
+        with open_input(self.path, "the log") as fh:
             if self._summary is not None:
                 yield from self._raw_indexed(fh, self._summary, wanted, damage)
                 return

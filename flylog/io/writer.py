@@ -22,7 +22,7 @@ import flylog
 from flylog.config import param
 from flylog.errors import LogError
 from flylog.io import contract
-from flylog.io.atomic import publish, temporary_beside
+from flylog.io.atomic import Batch, publish, temporary_beside
 
 
 class Compression(enum.Enum):
@@ -76,8 +76,12 @@ class LogWriter:
         *,
         compression: Compression | str = _DEFAULTS.compression,
         chunk_size: int = _DEFAULTS.chunk_size,
+        batch: Batch | None = None,
     ) -> None:
+        """``batch``: published with the batch's other outputs (:class:`Batch`), not at the
+        ``with`` block's end."""
         self.path = Path(path)
+        self._batch = batch
         self._compression = Compression(compression)
         self._chunk_size = int(chunk_size)
         self._tmp: Path | None = None
@@ -120,11 +124,13 @@ class LogWriter:
                 self._fh.flush()
                 os.fsync(self._fh.fileno())
                 self._fh.close()
-                publish(self._tmp, self.path)
+                publish(self._tmp, self.path, self._batch)
+                self._tmp = None  # renamed, or the batch's now
         finally:
             if not self._fh.closed:
                 self._fh.close()
-            self._tmp.unlink(missing_ok=True)
+            if self._tmp is not None:
+                self._tmp.unlink(missing_ok=True)
             self._writer = None
 
     def _live(self) -> Writer:

@@ -18,6 +18,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from flylog.errors import LogError, OutputError
+from flylog.io.inputs import input_path
 from flylog.io.tables import Column, TableWriter, schema
 
 SUMMARY_SUFFIX = ".summary.parquet"
@@ -158,7 +159,7 @@ def read_summary(path: Path) -> dict[str, Any]:
         msg = f"{found}: no such metrics summary (made by `flylog metrics -o {path}`)"
         raise LogError(msg)
     try:
-        rows = pq.read_table(found).to_pylist()
+        rows = pq.read_table(input_path(found, "the metrics summary")).to_pylist()
     except (pa.ArrowInvalid, OSError) as exc:
         msg = f"{found}: not a readable Parquet file ({exc})"
         raise LogError(msg) from None

@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from flylog.io.atomic import publish, temporary_beside
+from flylog.io.inputs import read_input_bytes
 
 _STYLE = """
 body { font-family: sans-serif; margin: 1.5em auto; max-width: 78em; color: #222;
@@ -31,7 +32,8 @@ p.note { font-size: 0.85em; color: #555; }
 
 
 def png_data_uri(path: Path) -> str:
-    return "data:image/png;base64," + base64.b64encode(Path(path).read_bytes()).decode("ascii")
+    data = read_input_bytes(path, "a figure")
+    return "data:image/png;base64," + base64.b64encode(data).decode("ascii")
 
 
 def cell_text(value: Any) -> str:

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from flylog.errors import LogError
+from flylog.io.inputs import input_path
 from flylog.report.html import Page, write_page
 
 # Left frames shown, evenly spread over the run's snapshots.
@@ -94,7 +95,9 @@ def _curves(snapshots: list[dict[str, Any]], steps: Path, t0_s: float) -> list:
     if steps.is_file():  # a replay's per-step table (a closed-loop log has none)
         import pyarrow.parquet as pq
 
-        table = pq.read_table(steps, columns=["t", "image_latency"]).to_pydict()
+        table = pq.read_table(
+            input_path(steps, "the step table"), columns=["t", "image_latency"]
+        ).to_pydict()
         st = np.array(table["t"], dtype=float)
         lat = np.array([np.nan if v is None else v for v in table["image_latency"]], dtype=float)
         panels.append(("image latency (s)", [Curve("run", ((st - t0_s, lat),))]))
@@ -116,7 +119,7 @@ def _metrics(run: Path, log: Path, metrics: Path | None) -> tuple[dict, list[dic
 
     summary = read_summary(metrics)
     try:
-        snapshots = pq.read_table(metrics).to_pylist()
+        snapshots = pq.read_table(input_path(metrics, "the metrics table")).to_pylist()
     except (pa.ArrowInvalid, OSError) as exc:
         msg = f"{metrics}: not a readable metrics table ({exc})"
         raise LogError(msg) from None

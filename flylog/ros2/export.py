@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 from mcap_protobuf.decoder import DecoderFactory
 
-from flylog.errors import LogError
+from flylog.errors import LogError, OutputError
 from flylog.io import contract, open_log
 from flylog.io.decode import image as rgb_of
 from flylog.io.decode import stamp_ns
@@ -104,8 +104,8 @@ def export_ros2(
     directory ``output``; nothing is left behind on failure."""
     log, output = Path(log), Path(output)
     if output.exists():
-        msg = f"{output} exists: the ROS 2 export writes a new directory, choose another OUT"
-        raise LogError(msg)
+        msg = f"{output} exists: the ROS 2 export writes a new directory"
+        raise OutputError(msg, path=output)
     if not output.parent.is_dir():
         msg = f"cannot write {output}: directory {output.parent} does not exist"
         raise LogError(msg)

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from flylog.errors import LogError
+from flylog.io.inputs import input_path
 from flylog.io.tables import Column
 from flylog.metrics.tables import SUMMARY_COLUMNS, write_table
 from flylog.replay.config import ReplayConfig
@@ -141,7 +142,7 @@ def is_results(path: Path) -> bool:
     import pyarrow.parquet as pq
 
     try:
-        meta = pq.read_schema(found).metadata or {}
+        meta = pq.read_schema(input_path(found, "the table")).metadata or {}
     except OSError:
         return False
     return METADATA_KEY.encode() in meta
@@ -154,7 +155,7 @@ def read_results(path: Path) -> tuple[list[str], list[dict[str, Any]]]:
 
     found = results_path(path)
     try:
-        table = pq.read_table(found)
+        table = pq.read_table(input_path(found, "the sweep results"))
     except (pa.ArrowInvalid, OSError) as exc:
         msg = f"{found}: not a readable sweep results table ({exc})"
         raise LogError(msg) from None
