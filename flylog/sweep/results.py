@@ -135,16 +135,19 @@ def results_path(path: Path) -> Path:
 
 
 def is_results(path: Path) -> bool:
-    """Whether ``path`` (a file or a sweep's directory) is a sweep's results table."""
+    """Whether ``path`` (a file or a sweep's directory) is a sweep's results table;
+    LogError for a Parquet file that cannot be read."""
     found = results_path(path)
     if not found.is_file() or found.suffix != ".parquet":
         return False
+    import pyarrow as pa
     import pyarrow.parquet as pq
 
     try:
         meta = pq.read_schema(input_path(found, "the table")).metadata or {}
-    except OSError:
-        return False
+    except (pa.ArrowException, OSError) as exc:  # a cut or damaged file
+        msg = f"{found}: not a readable Parquet file ({exc}); it is damaged or cut short"
+        raise LogError(msg) from None
     return METADATA_KEY.encode() in meta
 
 

@@ -105,7 +105,7 @@ CASES: dict[str, list[tuple[list[str], str, str]]] = {
     "replay": [
         (["replay", "log.mcap", "-o", "log.mcap"], OUT, "log.mcap"),
         (["replay", "log.mcap", "--config", "c.toml", "-o", "c.toml"], OUT, "c.toml"),
-        (["replay", "bag", "-o", "bag/bag_0.mcap"], OUT, "bag/bag_0.mcap"),
+        (["replay", "bag", "-o", "bag/bag.mcap"], OUT, "bag/bag.mcap"),
         (["replay", "bag", "-o", "bag/new.mcap"], OUT, "bag"),
     ],
     "metrics": [
