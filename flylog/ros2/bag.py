@@ -21,7 +21,8 @@ from flylog.io.inputs import input_path, open_input, read_input_text
 from flylog.io.reader import open_log
 from flylog.io.records import TopicInfo
 from flylog.ros2.detect import ROS1_MAGIC, ROS2_PROFILE
-from flylog.ros2.types import CdrDecoder
+from flylog.ros2.frames import StaticTree
+from flylog.ros2.types import TF_STATIC, CdrDecoder
 
 METADATA_FILE = "metadata.yaml"
 
@@ -82,6 +83,15 @@ class Bag:
                 yield BagMessage(
                     channel.topic, raw.message.log_time, schema.name if schema else "", value
                 )
+
+
+def static_tree(bag: Bag) -> StaticTree:
+    """The transforms of the bag's /tf_static (an empty tree without it)."""
+    tree = StaticTree()
+    if TF_STATIC in bag.topics():
+        for m in bag.messages([TF_STATIC]):
+            tree.add(m.value)
+    return tree
 
 
 def open_bag(path: str | os.PathLike[str]) -> Bag:
