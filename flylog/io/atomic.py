@@ -235,16 +235,15 @@ class Batch:
 
     def _rename_all(self) -> None:
         blocked = _STOP_SIGNALS if threading.current_thread() is threading.main_thread() else ()
-        if blocked:
-            signal.pthread_sigmask(signal.SIG_BLOCK, blocked)
+        previous = signal.pthread_sigmask(signal.SIG_BLOCK, blocked) if blocked else None
         try:
             for tmp, path in self._staged:
                 _rename(tmp, path)
             for directory in {path.parent for _, path in self._staged}:
                 _fsync_directory(directory)
         finally:
-            if blocked:
-                signal.pthread_sigmask(signal.SIG_UNBLOCK, blocked)
+            if previous is not None:  # a signal that came meanwhile is delivered now
+                signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 _STOP_SIGNALS = (

@@ -245,3 +245,28 @@ def test_an_import_into_a_new_folder_stopped_leaves_no_folder(tmp_path):
     with pytest.raises(KeyboardInterrupt):
         import_dataset("middlebury", tmp_path / "scenes", tmp_path / "new", on_progress=stop)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["scenes"]
+
+
+def test_a_245_character_output_name_is_written(place):
+    name = "n" * 240 + ".mcap"
+    result = run("import", "middlebury", "mb", "-o", name)
+    assert result.exit_code == 0, result.output
+    assert (place / name).stat().st_size > 0
+    assert not [p for p in place.iterdir() if p.name.endswith(".part")]
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["compare", "m.parquet", "m2.parquet"],  # a metrics output cut short
+        ["compare", "sweep/results.parquet", "sweep2/results.parquet"],  # a sweep's results
+    ],
+    ids=["metrics", "sweep"],
+)
+def test_compare_of_a_cut_parquet_file_is_exit_2(place, args):
+    cut = place / args[1]
+    cut.write_bytes(cut.read_bytes()[:300])
+    result = run(*args)
+    assert result.exit_code == 2, result.output
+    (line,) = error_lines(result)
+    assert line.startswith(f"error: {args[1]}: not a readable Parquet file"), line

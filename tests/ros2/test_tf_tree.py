@@ -150,3 +150,12 @@ def test_overrides_that_cannot_be_meant_are_refused(tmp_path, overrides, words):
     assert result.exit_code == 2, result.output
     assert words in result.stderr and "--topic" in result.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bag"]
+
+
+def test_a_metadata_file_that_is_not_utf8_is_exit_2(tmp_path):
+    bag = bags.make_bag(tmp_path / "bag", BagSpec(frames=1))
+    meta = bag / "metadata.yaml"
+    meta.write_bytes(meta.read_bytes().replace(b"rosbag2_bagfile_information", b"\xff\xfe", 1))
+    result = CliRunner().invoke(cli, ["replay", str(bag), "-o", str(tmp_path / "run.mcap")])
+    assert result.exit_code == 2, result.output
+    assert "metadata.yaml: the bag's metadata is not UTF-8 text" in result.stderr
