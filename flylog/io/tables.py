@@ -18,7 +18,7 @@ from pathlib import Path
 from types import TracebackType
 from typing import TYPE_CHECKING, Any, NamedTuple
 
-from flylog.io.atomic import publish, temporary_beside
+from flylog.io.atomic import Batch, publish, temporary_beside
 
 if TYPE_CHECKING:
     import pyarrow as pa
@@ -82,8 +82,9 @@ class TableWriter:
 
     Rows are buffered and flushed every ``rows_per_group`` rows; the file appears at
     ``path`` only when the block ends without an exception (written to a temporary file
-    in the same directory, then renamed). ``schema`` is a pyarrow schema or the columns to
-    make one of (:func:`schema`), with pyarrow, when the first row comes.
+    in the same directory, then renamed; with ``batch``, renamed with the batch's other
+    outputs, :class:`flylog.io.atomic.Batch`). ``schema`` is a pyarrow schema or the
+    columns to make one of (:func:`schema`), with pyarrow, when the first row comes.
     """
 
     def __init__(
@@ -93,8 +94,10 @@ class TableWriter:
         *,
         rows_per_group: int = 8192,
         metadata: dict[str, str] | None = None,
+        batch: Batch | None = None,
     ) -> None:
         self.path = Path(path)
+        self._batch = batch
         self._source: pa.Schema | tuple[Column, ...]
         if isinstance(schema, Sequence):  # columns (a pyarrow schema is no Sequence)
             self._source = tuple(schema)
@@ -164,8 +167,10 @@ class TableWriter:
             if exc_type is None:
                 self._flush()
                 self._open().close()
-                publish(self._tmp, self.path)
+                publish(self._tmp, self.path, self._batch)
+                self._tmp = None  # renamed, or the batch's now
         finally:
             if self._writer is not None:
                 self._writer.close()
-            self._tmp.unlink(missing_ok=True)
+            if self._tmp is not None:
+                self._tmp.unlink(missing_ok=True)

@@ -30,6 +30,7 @@ from flylog.config import from_mapping, to_mapping
 from flylog.errors import LogError
 from flylog.fly.obstacles import ObstacleFlies
 from flylog.io import contract, open_log
+from flylog.io.atomic import Batch
 from flylog.io.reader import LogReader
 from flylog.io.records import LogMessage
 from flylog.metrics import tables
@@ -385,12 +386,14 @@ def _scored(
 
 def write_metrics(result: MetricsResult, output: str | Path) -> tuple[Path, Path, Path]:
     """Write the snapshot table to ``output`` and the summary and obstacle tables beside it
-    (``NAME.summary.parquet``, ``NAME.obstacles.parquet``); returns the three paths."""
+    (``NAME.summary.parquet``, ``NAME.obstacles.parquet``), published together (all three
+    new, or all three as they were); returns the three paths."""
     output = Path(output)
     tables.check_output_name(output)
     meta = {tables.METADATA_KEY: json.dumps(to_mapping(result.config))}
     paths = (output, tables.summary_path(output), tables.obstacles_path(output))
-    tables.write_table(paths[0], tables.SNAPSHOT_COLUMNS, result.snapshots, meta)
-    tables.write_table(paths[1], tables.SUMMARY_COLUMNS, [result.summary], meta)
-    tables.write_table(paths[2], tables.OBSTACLE_COLUMNS, result.obstacles, meta)
+    with Batch() as batch:
+        tables.write_table(paths[0], tables.SNAPSHOT_COLUMNS, result.snapshots, meta, batch)
+        tables.write_table(paths[1], tables.SUMMARY_COLUMNS, [result.summary], meta, batch)
+        tables.write_table(paths[2], tables.OBSTACLE_COLUMNS, result.obstacles, meta, batch)
     return paths

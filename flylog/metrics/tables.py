@@ -18,6 +18,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from flylog.errors import LogError, OutputError
+from flylog.io.atomic import Batch
 from flylog.io.inputs import input_path
 from flylog.io.tables import Column, TableWriter, schema
 
@@ -125,8 +126,9 @@ def write_table(
     columns: tuple[Column, ...],
     rows: Iterable[Mapping[str, Any]],
     metadata: dict[str, str],
+    batch: Batch | None = None,
 ) -> None:
-    with TableWriter(path, schema(columns), metadata=metadata) as table:
+    with TableWriter(path, schema(columns), metadata=metadata, batch=batch) as table:
         for row in rows:
             table.append({c.name: clean(row[c.name]) for c in columns})
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import json
 import math
@@ -14,6 +13,7 @@ from pathlib import Path
 from flylog.budget import DEFAULT_LIMITS, Limits, check_sampling_rates, replay_estimate
 from flylog.config import to_mapping
 from flylog.io import contract
+from flylog.io.atomic import Batch
 from flylog.io.collisions import Role, check_outputs
 from flylog.io.fingerprint import log_fingerprint
 from flylog.io.tables import Column, TableWriter
@@ -147,64 +147,59 @@ def replay(
     check_sampling_rates(config, inputs.rig.frame_rate, source=f"the log {log}")
     replay_estimate(config, inputs.rig, duration).check(limits)
     engine_config = _without_robot(config, ground=inputs.has_ground, planner=inputs.has_planner)
-    existed = table.exists()
-    try:
-        with (
-            LogWriter(output, compression=RUN_COMPRESSION) as out,
-            TableWriter(table, STEP_COLUMNS) as rows,
-        ):
-            pipeline = FlyPipeline(
-                engine_config,
-                inputs.rig,
-                inputs.start,
-                inputs.goal,
-                out.write,
-                on_row=rows.append,
-                planner_thread=True,
-                planner=source.planner,
+    # the run and its step table are published together: both new, or both as they were
+    with (
+        Batch() as batch,
+        LogWriter(output, compression=RUN_COMPRESSION, batch=batch) as out,
+        TableWriter(table, STEP_COLUMNS, batch=batch) as rows,
+    ):
+        pipeline = FlyPipeline(
+            engine_config,
+            inputs.rig,
+            inputs.start,
+            inputs.goal,
+            out.write,
+            on_row=rows.append,
+            planner_thread=True,
+            planner=source.planner,
+        )
+        try:
+            clock = VirtualClock(
+                pipeline,
+                clock_config(config, inputs.frame_period_ns, planner=inputs.has_planner),
             )
-            try:
-                clock = VirtualClock(
-                    pipeline,
-                    clock_config(config, inputs.frame_period_ns, planner=inputs.has_planner),
-                )
-                reported_ns = inputs.start_ns
-                for message in source.records:
-                    clock.feed(message.value)
-                    if on_progress is not None and message.log_time_ns >= reported_ns:
-                        on_progress((message.log_time_ns - inputs.start_ns) / 1e9, duration)
-                        reported_ns = message.log_time_ns + PROGRESS_STEP_NS
-                stats = clock.finish(inputs.end_ns)
-                if inputs.frames == 1:
-                    # the population after all the generations made on the one pair
-                    pipeline.tick(SNAPSHOT_TICK, max(stats.now_ns, inputs.end_ns + 1))
-                if on_progress is not None:
-                    on_progress(duration, duration)
-                pipeline.flush()
-            finally:
-                pipeline.close()
-            wall = time.perf_counter() - t0
-            out.add_metadata(
-                contract.REPLAY_METADATA,
-                {
-                    "config": json.dumps(to_mapping(config)),
-                    "log": str(log),
-                    "log_fingerprint": fingerprint,
-                    "goal": json.dumps(list(inputs.goal) if source.planner else None),
-                    "generations": str(stats.generations),
-                    "evaluations": str(stats.evaluations),
-                    "frames": str(stats.frames),
-                    "wall_seconds": f"{wall:.3f}",
-                    "log_duration": f"{duration:.3f}",
-                    "ground_test": json.dumps(inputs.has_ground),
-                    "planner": json.dumps(inputs.has_planner),
-                },
-            )
-    except BaseException:
-        if not existed:
-            with contextlib.suppress(OSError):  # the error being raised says why
-                table.unlink(missing_ok=True)
-        raise
+            reported_ns = inputs.start_ns
+            for message in source.records:
+                clock.feed(message.value)
+                if on_progress is not None and message.log_time_ns >= reported_ns:
+                    on_progress((message.log_time_ns - inputs.start_ns) / 1e9, duration)
+                    reported_ns = message.log_time_ns + PROGRESS_STEP_NS
+            stats = clock.finish(inputs.end_ns)
+            if inputs.frames == 1:
+                # the population after all the generations made on the one pair
+                pipeline.tick(SNAPSHOT_TICK, max(stats.now_ns, inputs.end_ns + 1))
+            if on_progress is not None:
+                on_progress(duration, duration)
+            pipeline.flush()
+        finally:
+            pipeline.close()
+        wall = time.perf_counter() - t0
+        out.add_metadata(
+            contract.REPLAY_METADATA,
+            {
+                "config": json.dumps(to_mapping(config)),
+                "log": str(log),
+                "log_fingerprint": fingerprint,
+                "goal": json.dumps(list(inputs.goal) if source.planner else None),
+                "generations": str(stats.generations),
+                "evaluations": str(stats.evaluations),
+                "frames": str(stats.frames),
+                "wall_seconds": f"{wall:.3f}",
+                "log_duration": f"{duration:.3f}",
+                "ground_test": json.dumps(inputs.has_ground),
+                "planner": json.dumps(inputs.has_planner),
+            },
+        )
     return ReplaySummary(
         output=output,
         table=table,

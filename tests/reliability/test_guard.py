@@ -270,3 +270,25 @@ def test_compare_of_a_cut_parquet_file_is_exit_2(place, args):
     assert result.exit_code == 2, result.output
     (line,) = error_lines(result)
     assert line.startswith(f"error: {args[1]}: not a readable Parquet file"), line
+
+
+def test_a_replay_that_fails_closing_its_log_keeps_both_earlier_outputs(tmp_path, monkeypatch):
+    """The run and its step table are published together: the log failing as it is
+    finished (a full disk, say) leaves the earlier run and table as they were, not a new
+    table beside the old run."""
+    from mcap.writer import Writer
+
+    for name in ("run.mcap", "run.parquet"):
+        (tmp_path / name).write_bytes(b"earlier")
+
+    def full(self):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(Writer, "finish", full)
+    config = replace_dotted(ReplayConfig(), {"engine.flies": 50, "generations_per_frame": 1})
+    with pytest.raises(OSError, match="No space"):
+        replay(LOG, tmp_path / "run.mcap", config)
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == {
+        "run.mcap": b"earlier",
+        "run.parquet": b"earlier",
+    }
