@@ -47,7 +47,7 @@ _PART_TAIL = 1 + 7 + 1 + 2 * _TOKEN_BYTES + len(PART_SUFFIX)
 _DIGEST_CHARS = 16
 
 
-def _part_stem(path: Path) -> str:
+def part_stem(path: Path) -> str:
     """ ".NAME", or for a name too long to fit with the tail, its start and a digest of the
     whole: the same for every writer of ``path``, so that stale parts are found."""
     stem = f".{path.name}"
@@ -60,7 +60,7 @@ def _part_stem(path: Path) -> str:
 
 
 def _part_pattern(path: Path) -> re.Pattern[str]:
-    stem = re.escape(_part_stem(path))
+    stem = re.escape(part_stem(path))
     return re.compile(rf"{stem}\.(\d+)-[0-9a-f]{{{2 * _TOKEN_BYTES}}}\.part")
 
 
@@ -144,7 +144,7 @@ def temporary_beside(path: Path) -> tuple[int, Path]:
     refuse_to_replace(path)
     for stale in stale_parts(path):
         stale.unlink(missing_ok=True)
-    stem = _part_stem(path)
+    stem = part_stem(path)
     while True:
         token = secrets.token_hex(_TOKEN_BYTES)
         tmp = path.parent / f"{stem}.{os.getpid()}-{token}{PART_SUFFIX}"

@@ -33,6 +33,7 @@ from mcap_protobuf.decoder import DecoderFactory
 
 from flylog.errors import LogError, OutputError
 from flylog.io import contract, open_log
+from flylog.io.atomic import part_stem
 from flylog.io.decode import image as rgb_of
 from flylog.io.decode import stamp_ns
 from flylog.ros2 import types
@@ -111,7 +112,9 @@ def export_ros2(
         raise LogError(msg)
     reader = open_log(log)
     goal = reader.metadata().get(contract.SIMULATION_METADATA, {}).get("goal")
-    staging = Path(tempfile.mkdtemp(prefix=f".{output.name}.", suffix=".part", dir=output.parent))
+    # part_stem: a name of any legal length leaves room for mkdtemp's 8 characters
+    prefix = f"{part_stem(output)}."
+    staging = Path(tempfile.mkdtemp(prefix=prefix, suffix=".part", dir=output.parent))
     try:
         bag = _Bag(staging / output.name)
         if goal is not None:

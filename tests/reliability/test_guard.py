@@ -292,3 +292,9 @@ def test_a_replay_that_fails_closing_its_log_keeps_both_earlier_outputs(tmp_path
         "run.mcap": b"earlier",
         "run.parquet": b"earlier",
     }
+
+
+def test_a_245_character_bag_name_is_exported(tmp_path):
+    name = "b" * 245
+    export_ros2(LOG, tmp_path / name)
+    assert sorted(p.name for p in tmp_path.iterdir()) == [name]
