@@ -1,0 +1,96 @@
+"""The flies' confidence and its calibration (flylog.fly.confidence,
+flylog.metrics.calibration), and the packaged model (flylog/fly/confidence.json)."""
+
+import json
+import math
+from importlib import resources
+
+import numpy as np
+import pytest
+
+from flylog.fly import confidence as cf
+from flylog.metrics.calibration import (
+    default_engine_digest,
+    expected_calibration_error,
+    fit_isotonic,
+    fit_logistic,
+    reliability,
+)
+from flylog.metrics.config import MetricsConfig
+
+# The packaged model's target on runs it was not fitted on (docs/export.md).
+HELD_OUT_ECE = 0.05
+
+
+def test_the_packaged_model_is_current_for_the_default_configuration():
+    text = resources.files("flylog.fly").joinpath(cf.PACKAGED).read_text(encoding="utf-8")
+    model = cf.load()
+    assert model is not None and json.loads(text)["format"] == cf.FORMAT
+    assert model.to_json() == text  # written by `flylog calibrate` in the current format
+    assert model.engine == default_engine_digest()
+    assert model.tau == MetricsConfig().tau
+    provenance = json.loads(model.provenance)
+    fitted = {(r["scene"], r["seed"]) for r in provenance["fit"]}
+    fitted_seeds = {seed for _, seed in fitted}
+    assert provenance["held_out"]
+    for r in provenance["held_out"]:  # other seeds (and, some, other scenes)
+        assert r["seed"] not in fitted_seeds
+    assert {r["scene"] for r in provenance["held_out"]} - {s for s, _ in fitted}
+    for r in provenance["ece"]:
+        if r["role"] == "held_out":
+            assert r["ece"] <= HELD_OUT_ECE
+
+
+def test_confidence_rises_with_the_fitness_rank_and_invalid_flies_have_none():
+    model = cf.load()
+    fitness = np.array([0.0, 1.0, 5.0, 2.0, -1.0, 9.0])
+    p = model.of(fitness, None, None)
+    assert p[0] == 0 and p[4] == 0
+    assert p[1] <= p[3] <= p[2] <= p[5]
+    assert 0 < p[5] <= 1
+
+
+def test_fitness_quantile_is_the_mean_rank_among_valid_flies():
+    q = cf.fitness_quantile(np.array([3.0, 0.0, 1.0, 3.0, 2.0]))
+    np.testing.assert_allclose(q, [3.5 / 4, 0, 1 / 4, 3.5 / 4, 2 / 4])
+
+
+def test_ece_and_reliability_of_known_cases():
+    rng = np.random.default_rng(0)
+    p = rng.uniform(0, 1, 200_000)
+    y = rng.uniform(0, 1, len(p)) < p  # calibrated by construction
+    assert expected_calibration_error(p, y) < 0.005
+    assert expected_calibration_error(np.full(10, 0.9), np.arange(10) < 6) == pytest.approx(0.3)
+    rows = reliability(np.array([0.05, 0.05, 0.95]), np.array([1, 0, 1]))
+    assert [r["flies"] for r in rows] == [2, 0, 0, 0, 0, 0, 0, 0, 0, 1]
+    assert rows[0]["on_surface_share"] == 0.5 and math.isnan(rows[1]["mean_confidence"])
+    assert math.isnan(expected_calibration_error(np.empty(0), np.empty(0)))
+
+
+def test_isotonic_fit_is_monotone_and_keeps_each_blocks_mean():
+    x = np.array([1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
+    y = np.array([0.0, 1.0, 0.0, 1.0, 1.0, 0.0])
+    kx, kv = fit_isotonic(x, y)
+    assert np.all(np.diff(kv) >= 0)
+    np.testing.assert_allclose(kv, [0.0, 0.5, 2 / 3])  # blocks {1}, {2, 3}, {4, 5, 6}
+    np.testing.assert_allclose(kx, [1.0, 2.5, 5.0])
+
+
+def test_logistic_fit_recovers_known_weights():
+    rng = np.random.default_rng(1)
+    x = rng.normal(size=(100_000, 2))
+    p = 1 / (1 + np.exp(-(0.5 + 2.0 * x[:, 0] - 1.0 * x[:, 1])))
+    y = rng.uniform(size=len(p)) < p
+    np.testing.assert_allclose(fit_logistic(x, y), [0.5, 2.0, -1.0], atol=0.05)
+
+
+def test_a_model_file_that_is_not_one_is_refused(tmp_path):
+    from flylog.errors import ConfigError
+
+    bad = tmp_path / "m.json"
+    bad.write_text('{"format": "flylog.confidence/0"}')
+    with pytest.raises(ConfigError, match="format"):
+        cf.load(bad)
+    bad.write_text(json.dumps({"format": cf.FORMAT, "kind": "isotonic", "features": ["x"]}))
+    with pytest.raises(ConfigError, match=r"m\.json"):
+        cf.load(bad)
