@@ -10,6 +10,7 @@ images (:mod:`flylog.metrics.image_truth`).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from collections.abc import Sequence
@@ -37,6 +38,7 @@ class Labelled(NamedTuple):
     features: dict[str, np.ndarray]
     on_surface: np.ndarray
     snapshot: np.ndarray
+    obstacle: np.ndarray  # taken for an obstacle by the run's rule
 
     @property
     def flies(self) -> int:
@@ -45,12 +47,14 @@ class Labelled(NamedTuple):
 
 def concatenate(parts: Sequence[Labelled]) -> Labelled:
     if not parts:
-        return Labelled({n: np.empty(0) for n in cf.FEATURES}, np.empty(0, bool), np.empty(0, int))
+        none = np.empty(0, bool)
+        return Labelled({n: np.empty(0) for n in cf.FEATURES}, none, np.empty(0, int), none)
     offsets = np.cumsum([0] + [int(p.snapshot.max()) + 1 if p.flies else 0 for p in parts])
     return Labelled(
         {n: np.concatenate([p.features[n] for p in parts]) for n in cf.FEATURES},
         np.concatenate([p.on_surface for p in parts]),
         np.concatenate([p.snapshot + o for p, o in zip(parts, offsets, strict=False)]),
+        np.concatenate([p.obstacle for p in parts]),
     )
 
 
@@ -86,6 +90,12 @@ def labelled_run(run: str | Path, log: str | Path, config: MetricsConfig) -> Lab
     return _labelled_scene(reader, Path(log), config)
 
 
+def _rule(reader: LogReader, config: MetricsConfig) -> Any:
+    from flylog.metrics.score import run_facts
+
+    return run_facts(reader, config).rule
+
+
 def _judged(
     xyz: np.ndarray, fitness: np.ndarray, rig: Any
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -102,6 +112,7 @@ def _labelled_scene(reader: LogReader, log: Path, config: MetricsConfig) -> Labe
     from flylog.metrics.view import TrueViews
 
     truth = read_truth(log)
+    rule = _rule(reader, config)
     views = TrueViews(truth.scene, truth.rig, config.truth_width)
     pose_at = PoseInterpolator(truth.true)
     parts: list[Labelled] = []
@@ -117,10 +128,10 @@ def _labelled_scene(reader: LogReader, log: Path, config: MetricsConfig) -> Labe
             on = np.zeros(len(idx), dtype=bool)
             on[seen] = np.abs(d[seen] - true_d[seen]) <= config.tau * true_d[seen]
             table = cf.features(cloud.fitness, cloud.age, cloud.distinct)
+            keep = rule.mask(cloud.xyz, cloud.fitness, cloud.age, cloud.distinct)[idx]
             # Sky pixels judge a fly as off every surface, as the precision does.
-            parts.append(
-                Labelled({n: v[idx] for n, v in table.items()}, on, np.full(len(idx), len(parts)))
-            )
+            features = {n: v[idx] for n, v in table.items()}
+            parts.append(Labelled(features, on, np.full(len(idx), len(parts)), keep))
         batch.clear()
 
     for m in reader.messages([contract.FLIES]):
@@ -140,6 +151,8 @@ def _labelled_images(reader: LogReader, log: Path, config: MetricsConfig) -> Lab
     dataset = sensor.metadata().get(contract.DATASET_METADATA, {})
     rig = log_rig(sensor, mounted=dataset.get("mount") != contract.MOUNT_NONE)
     truth = read_disparity_truth(sensor, rig)
+    # no ground plane under a dataset's cameras: the rule's ground test is off, as metrics has it
+    rule = dataclasses.replace(_rule(reader, config), ground_margin=-math.inf)
     parts: list[Labelled] = []
     for m in reader.messages([contract.FLIES]):
         k = truth.at(m.log_time_ns)
@@ -152,9 +165,9 @@ def _labelled_images(reader: LogReader, log: Path, config: MetricsConfig) -> Lab
         true_depth = rig.depth_of_disparity(true[known])
         on = np.abs(d[known] - true_depth) <= config.tau * true_depth
         table = cf.features(cloud.fitness, cloud.age, cloud.distinct)
-        parts.append(
-            Labelled({n: v[idx][known] for n, v in table.items()}, on, np.full(len(on), len(parts)))
-        )
+        keep = rule.mask(cloud.xyz, cloud.fitness, cloud.age, cloud.distinct)[idx][known]
+        features = {n: v[idx][known] for n, v in table.items()}
+        parts.append(Labelled(features, on, np.full(len(on), len(parts)), keep))
     return concatenate(parts)
 
 
@@ -385,4 +398,26 @@ def score_confidence(
     p = predict(model, data)
     return ConfidenceScore(
         expected_calibration_error(p, data.on_surface), data.flies, reliability(p, data.on_surface)
+    )
+
+
+class RuleComparison(NamedTuple):
+    """Precision of the run's obstacle rule and of the flies of highest confidence, as many
+    (the judged flies of a run: valid, in view, on known truth)."""
+
+    points: int
+    rule_precision: float
+    confidence_precision: float
+
+
+def compare_with_rule(data: Labelled, model: cf.ConfidenceModel) -> RuleComparison:
+    """The rule's flies against the same number of flies of highest confidence (ties broken
+    by the fitness's rank) over all the judged flies of ``data``."""
+    m = int(data.obstacle.sum())
+    if m == 0:
+        return RuleComparison(0, math.nan, math.nan)
+    p = predict(model, data)
+    order = np.lexsort((data.features[cf.QUANTILE], p))[::-1][:m]
+    return RuleComparison(
+        m, float(data.on_surface[data.obstacle].mean()), float(data.on_surface[order].mean())
     )

@@ -94,3 +94,31 @@ def test_a_model_file_that_is_not_one_is_refused(tmp_path):
     bad.write_text(json.dumps({"format": cf.FORMAT, "kind": "isotonic", "features": ["x"]}))
     with pytest.raises(ConfigError, match=r"m\.json"):
         cf.load(bad)
+
+
+@pytest.fixture(scope="module")
+def corridor_run(tmp_path_factory):
+    from flylog.replay.run import replay
+    from tests.replay.test_replay import CORRIDOR, SMALL
+
+    return replay(CORRIDOR, tmp_path_factory.mktemp("cal") / "run.mcap", SMALL).output, CORRIDOR
+
+
+def test_labels_agree_with_the_fly_metrics_and_the_rule_comparison_counts_alike(corridor_run):
+    from flylog.metrics.calibration import compare_with_rule, labelled_run, score_confidence
+    from flylog.metrics.score import score_run
+
+    run, log = corridor_run
+    data = labelled_run(run, log, MetricsConfig())
+    summary = score_run(run, log, MetricsConfig()).summary
+    # the rule's flies among the judged ones are the flies the precision counts
+    assert data.on_surface[data.obstacle].mean() == pytest.approx(summary["precision"])
+    model = cf.load()
+    compared = compare_with_rule(data, model)
+    assert compared.points == int(data.obstacle.sum()) > 0
+    assert compared.rule_precision == pytest.approx(summary["precision"])
+    assert 0 <= compared.confidence_precision <= 1
+    score = score_confidence(run, log, MetricsConfig(), model)
+    assert score.ece == pytest.approx(summary["confidence_ece"])
+    assert score.flies == data.flies == summary["confidence_flies"]
+    assert sum(r["flies"] for r in score.table) == data.flies
