@@ -82,15 +82,34 @@ class RunBuilder(Builder):
         return t[OCCUPANCY_GRID](header=self.header(stamp_ns, frame_id), info=info, data=data)
 
     def path(self, stamp_ns: int, frame_id: str, poses: np.ndarray) -> Any:
-        """A Path of planar poses (K, 3): x, y, theta, each stamped as the path."""
+        """A Path of planar poses (K, 3): x, y, theta, each stamped as the path (one header
+        object shared by all: a path holds hundreds of poses at every snapshot)."""
         t = self._t
-        stamped = [
-            t["geometry_msgs/msg/PoseStamped"](
-                header=self.header(stamp_ns, frame_id), pose=self._pose(x, y, theta)
-            )
-            for x, y, theta in np.asarray(poses, dtype=float).reshape(-1, 3)
-        ]
-        return t[PATH](header=self.header(stamp_ns, frame_id), poses=stamped)
+        poses = np.asarray(poses, dtype=float).reshape(-1, 3)
+        header = self.header(stamp_ns, frame_id)
+        point, quaternion = t["geometry_msgs/msg/Point"], t["geometry_msgs/msg/Quaternion"]
+        pose, stamped = t["geometry_msgs/msg/Pose"], t["geometry_msgs/msg/PoseStamped"]
+        half = 0.5 * poses[:, 2]
+        rows = zip(
+            poses[:, 0].tolist(),
+            poses[:, 1].tolist(),
+            np.sin(half).tolist(),
+            np.cos(half).tolist(),
+            strict=True,
+        )
+        return t[PATH](
+            header=header,
+            poses=[
+                stamped(
+                    header=header,
+                    pose=pose(
+                        position=point(x=x, y=y, z=0.0),
+                        orientation=quaternion(x=0.0, y=0.0, z=qz, w=qw),
+                    ),
+                )
+                for x, y, qz, qw in rows
+            ],
+        )
 
     def twist(self, stamp_ns: int, frame_id: str, linear: float, angular: float) -> Any:
         """A TwistStamped: ``linear`` along x (m/s), ``angular`` about z (rad/s)."""
