@@ -3,7 +3,7 @@ tolerance τ of the true depth), from what a snapshot holds of it: its fitness's
 the snapshot's valid flies, its age and its distinctness.
 
 The model is fitted on simulated runs with ground truth (:mod:`flylog.metrics.calibration`,
-``flylog metrics --fit-confidence``) and stored with the engine configuration it holds for
+``flylog calibrate``) and stored with the engine configuration it holds for
 (``confidence.json`` beside this module). Invalid flies (fitness ≤ 0) have confidence 0.
 """
 
@@ -24,12 +24,33 @@ from flylog.io.records import FlyCloud
 FORMAT = "flylog.confidence/1"
 PACKAGED = "confidence.json"
 
-# Features a model may read; each (N,) float64 over the snapshot's flies.
+# Features a model may read; each (N,) float64 over the snapshot's flies. The first four
+# come from the cloud's fields; the others from them and the obstacle rule's distinctness
+# threshold (``min_distinctness``, which the model records).
 QUANTILE = "quantile"  # rank of the fitness among the valid flies, in (0, 1]
 LOG_AGE = "log_age"  # log(1 + generations survived)
 DISTINCT = "distinct"  # log(distinctness), 0 where not measured
 MEASURED = "measured"  # 1 where the distinctness was measured (an obstacle candidate)
-FEATURES = (QUANTILE, LOG_AGE, DISTINCT, MEASURED)
+QUANTILE_SQUARED = "quantile_squared"
+PASSES = "passes"  # 1 where the distinctness is at least min_distinctness (an obstacle fly)
+QUANTILE_PASSES = "quantile_passes"  # quantile × passes
+DISTINCT_PASSES = "distinct_passes"  # distinct × passes
+BASE_FEATURES = (QUANTILE, LOG_AGE, DISTINCT, MEASURED)
+FEATURES = (*BASE_FEATURES, QUANTILE_SQUARED, PASSES, QUANTILE_PASSES, DISTINCT_PASSES)
+
+
+def derived(table: dict[str, np.ndarray], min_distinctness: float) -> dict[str, np.ndarray]:
+    """Every feature of :data:`FEATURES` from the :data:`BASE_FEATURES` of ``table``."""
+    q, log_d = table[QUANTILE], table[DISTINCT]
+    passes = (table[MEASURED] > 0) & (log_d >= math.log(min_distinctness))
+    passes = passes.astype(np.float64) if min_distinctness > 0 else table[MEASURED]
+    return {
+        **table,
+        QUANTILE_SQUARED: q * q,
+        PASSES: passes,
+        QUANTILE_PASSES: q * passes,
+        DISTINCT_PASSES: log_d * passes,
+    }
 
 
 def fitness_quantile(fitness: np.ndarray) -> np.ndarray:
@@ -53,7 +74,7 @@ def fitness_quantile(fitness: np.ndarray) -> np.ndarray:
 def features(
     fitness: np.ndarray, age: np.ndarray | None, distinct: np.ndarray | None
 ) -> dict[str, np.ndarray]:
-    """Every feature of :data:`FEATURES` for one snapshot's flies."""
+    """The :data:`BASE_FEATURES` of one snapshot's flies."""
     n = len(fitness)
     a = np.zeros(n) if age is None else np.log1p(np.maximum(np.asarray(age, float), 0.0))
     d = np.full(n, np.nan) if distinct is None else np.asarray(distinct, dtype=np.float64)
@@ -70,14 +91,17 @@ def features(
 
 @dataclass(frozen=True)
 class ConfidenceModel:
-    """Logistic: P = σ(b + Σ w_i f_i) over ``names``; isotonic: P piecewise linear in the one
-    feature ``names[0]`` through the points (``knots``, ``values``)."""
+    """A linear score s = b + Σ w_i f_i over the features ``names`` (``coefficients``:
+    b, then one weight a feature), turned into a probability: logistic, P = 1 / (1 + e^−s);
+    isotonic, P piecewise linear in s through the points (``knots``, ``values``), a
+    monotone recalibration of the score fitted apart."""
 
     kind: str  # "logistic" or "isotonic"
     names: tuple[str, ...]
-    coefficients: tuple[float, ...] = ()  # logistic: intercept, then one per name
+    coefficients: tuple[float, ...]
     knots: tuple[float, ...] = ()  # isotonic
     values: tuple[float, ...] = ()  # isotonic
+    min_distinctness: float = 1.5  # the obstacle rule's threshold the "passes" features use
     tau: float = 0.05  # the surface tolerance it was fitted for (MetricsConfig.tau)
     engine: str = ""  # digest of the engine and obstacle configuration it holds for
     provenance: str = ""  # JSON: what it was fitted and checked on
@@ -87,24 +111,28 @@ class ConfidenceModel:
         if self.kind not in ("logistic", "isotonic") or unknown or not self.names:
             msg = f"confidence model of kind {self.kind!r} with features {list(self.names)}"
             raise ConfigError(msg)
-        if self.kind == "logistic" and len(self.coefficients) != len(self.names) + 1:
-            msg = "a logistic confidence model needs an intercept and one weight a feature"
+        if len(self.coefficients) != len(self.names) + 1:
+            msg = "a confidence model needs an intercept and one weight a feature"
             raise ConfigError(msg)
-        if self.kind == "isotonic" and (
-            len(self.names) != 1 or len(self.knots) != len(self.values) or not self.knots
-        ):
-            msg = "an isotonic confidence model needs one feature and its knots and values"
+        if self.kind == "isotonic" and (len(self.knots) != len(self.values) or not self.knots):
+            msg = "an isotonic confidence model needs its knots and values, as many"
             raise ConfigError(msg)
 
+    def score(self, table: dict[str, np.ndarray]) -> np.ndarray:
+        """(N,) the linear score of the flies whose :data:`BASE_FEATURES` are ``table``."""
+        full = derived(table, self.min_distinctness)
+        z = np.full(len(table[QUANTILE]), self.coefficients[0])
+        for name, w in zip(self.names, self.coefficients[1:], strict=True):
+            z += w * full[name]
+        return z
+
     def predict(self, table: dict[str, np.ndarray], valid: np.ndarray) -> np.ndarray:
-        """(N,) confidence from a feature ``table``; 0 where not ``valid``."""
+        """(N,) confidence from a table of :data:`BASE_FEATURES`; 0 where not ``valid``."""
+        z = self.score(table)
         if self.kind == "logistic":
-            z = np.full(len(valid), self.coefficients[0])
-            for name, w in zip(self.names, self.coefficients[1:], strict=True):
-                z += w * table[name]
             p = 1.0 / (1.0 + np.exp(-z))
         else:
-            p = np.interp(table[self.names[0]], self.knots, self.values)
+            p = np.interp(z, self.knots, self.values)
         return np.where(valid, p, 0.0)
 
     def of(
@@ -122,12 +150,12 @@ class ConfidenceModel:
             "format": FORMAT,
             "kind": self.kind,
             "features": list(self.names),
+            "coefficients": list(self.coefficients),
+            "min_distinctness": self.min_distinctness,
             "tau": self.tau,
             "engine": self.engine,
         }
-        if self.kind == "logistic":
-            body["coefficients"] = list(self.coefficients)
-        else:
+        if self.kind == "isotonic":
             body["knots"], body["values"] = list(self.knots), list(self.values)
         body["provenance"] = json.loads(self.provenance) if self.provenance else {}
         return json.dumps(body, indent=1) + "\n"
@@ -147,9 +175,10 @@ def from_json(text: str, source: str) -> ConfidenceModel:
         return ConfidenceModel(
             kind=body["kind"],
             names=tuple(body["features"]),
-            coefficients=tuple(body.get("coefficients", ())),
+            coefficients=tuple(body["coefficients"]),
             knots=tuple(body.get("knots", ())),
             values=tuple(body.get("values", ())),
+            min_distinctness=float(body["min_distinctness"]),
             tau=float(body["tau"]),
             engine=str(body["engine"]),
             provenance=json.dumps(body.get("provenance", {})),

@@ -32,8 +32,9 @@ _BATCH = 32  # snapshots whose true views render together
 
 
 class Labelled(NamedTuple):
-    """The judged flies of some snapshots: features (:data:`flylog.fly.confidence.FEATURES`,
-    each (N,)), whether each lies on a surface, and the index of its snapshot."""
+    """The judged flies of some snapshots: features
+    (:data:`flylog.fly.confidence.BASE_FEATURES`, each (N,)), whether each lies on a surface,
+    the index of its snapshot and whether the run's obstacle rule takes it."""
 
     features: dict[str, np.ndarray]
     on_surface: np.ndarray
@@ -48,10 +49,10 @@ class Labelled(NamedTuple):
 def concatenate(parts: Sequence[Labelled]) -> Labelled:
     if not parts:
         none = np.empty(0, bool)
-        return Labelled({n: np.empty(0) for n in cf.FEATURES}, none, np.empty(0, int), none)
+        return Labelled({n: np.empty(0) for n in cf.BASE_FEATURES}, none, np.empty(0, int), none)
     offsets = np.cumsum([0] + [int(p.snapshot.max()) + 1 if p.flies else 0 for p in parts])
     return Labelled(
-        {n: np.concatenate([p.features[n] for p in parts]) for n in cf.FEATURES},
+        {n: np.concatenate([p.features[n] for p in parts]) for n in cf.BASE_FEATURES},
         np.concatenate([p.on_surface for p in parts]),
         np.concatenate([p.snapshot + o for p, o in zip(parts, offsets, strict=False)]),
         np.concatenate([p.obstacle for p in parts]),
@@ -272,31 +273,36 @@ def fit_isotonic(x: np.ndarray, y: np.ndarray, *, knots: int = 64) -> tuple[np.n
 
 
 def fit_model(
-    data: Labelled, kind: str, names: Sequence[str], *, tau: float, engine: str, provenance: str
+    data: Labelled,
+    kind: str,
+    names: Sequence[str],
+    *,
+    min_distinctness: float,
+    tau: float,
+    engine: str,
+    provenance: str,
 ) -> cf.ConfidenceModel:
-    """A confidence model of ``kind`` ("logistic", "isotonic") on ``names``, fitted to
-    ``data``."""
+    """A confidence model of ``kind`` on the features ``names``, fitted to ``data``: the
+    logistic regression's score, and for "isotonic" that score's isotonic recalibration on
+    the same flies."""
     if data.flies == 0:
         msg = "no judged flies to fit a confidence model on"
         raise LogError(msg)
-    if kind == "logistic":
-        x = np.column_stack([data.features[n] for n in names])
-        w = fit_logistic(x, data.on_surface)
-        return cf.ConfidenceModel(
-            "logistic",
-            tuple(names),
-            coefficients=tuple(float(v) for v in w),
-            tau=tau,
-            engine=engine,
-            provenance=provenance,
-        )
-    (name,) = names
-    kx, kv = fit_isotonic(data.features[name], data.on_surface)
+    table = cf.derived(data.features, min_distinctness)
+    x = np.column_stack([table[n] for n in names])
+    w = fit_logistic(x, data.on_surface)
+    knots: tuple[float, ...] = ()
+    values: tuple[float, ...] = ()
+    if kind == "isotonic":
+        kx, kv = fit_isotonic(w[0] + x @ w[1:], data.on_surface)
+        knots, values = tuple(float(v) for v in kx), tuple(float(v) for v in kv)
     return cf.ConfidenceModel(
-        "isotonic",
-        (name,),
-        knots=tuple(float(v) for v in kx),
-        values=tuple(float(v) for v in kv),
+        kind,
+        tuple(names),
+        coefficients=tuple(float(v) for v in w),
+        knots=knots,
+        values=values,
+        min_distinctness=min_distinctness,
         tau=tau,
         engine=engine,
         provenance=provenance,
@@ -309,8 +315,19 @@ def predict(model: cf.ConfidenceModel, data: Labelled) -> np.ndarray:
 
 # ---- the packaged model ------------------------------------------------------------------
 
-KIND = "isotonic"
-NAMES = (cf.QUANTILE,)
+# The packaged model's form (docs/export.md: chosen by leave-one-scene-out on the fitted
+# runs; the held-out runs judge it, they did not choose it).
+KIND = "logistic"
+NAMES = (
+    cf.QUANTILE,
+    cf.QUANTILE_SQUARED,
+    cf.LOG_AGE,
+    cf.MEASURED,
+    cf.DISTINCT,
+    cf.PASSES,
+    cf.QUANTILE_PASSES,
+    cf.DISTINCT_PASSES,
+)
 
 
 def _describe(run: Path, log: Path) -> dict[str, Any]:
@@ -324,8 +341,10 @@ def calibrate(
     config: MetricsConfig,
     *,
     command: str = "",
+    kind: str = KIND,
+    names: Sequence[str] = NAMES,
 ) -> tuple[cf.ConfidenceModel, list[dict[str, Any]]]:
-    """The confidence model (:data:`KIND` on :data:`NAMES`) fitted on the (run, log) pairs
+    """The confidence model (``kind`` on ``names``) fitted on the (run, log) pairs
     ``fit``, and the ECE on each pair of ``fit`` and of ``check`` (held out: scenes and seeds
     not fitted on) as rows {run, log, scene, seed, role, flies, on_surface_share, ece}. The
     runs must share one engine configuration, which the model records."""
@@ -334,6 +353,7 @@ def calibrate(
         msg = "the calibration runs were replayed with different engine configurations"
         raise LogError(msg)
     parts = {pair: labelled_run(pair[0], pair[1], config) for pair in [*fit, *check]}
+    rule = _rule(open_log(fit[0][0]), config)
     provenance: dict[str, Any] = {
         "command": command,
         "fit": [_describe(*pair) for pair in fit],
@@ -341,8 +361,9 @@ def calibrate(
     }
     model = fit_model(
         concatenate([parts[p] for p in fit]),
-        KIND,
-        NAMES,
+        kind,
+        names,
+        min_distinctness=rule.min_distinctness,
         tau=config.tau,
         engine=digests.pop(),
         provenance=json.dumps(provenance),
@@ -367,16 +388,7 @@ def calibrate(
     provenance["ece"] = [{k: r[k] for k in ("run", "role", "ece")} for r in rows]
     for r in provenance["ece"]:
         r["ece"] = round(r["ece"], 4)
-    model = cf.ConfidenceModel(
-        model.kind,
-        model.names,
-        knots=model.knots,
-        values=model.values,
-        tau=model.tau,
-        engine=model.engine,
-        provenance=json.dumps(provenance),
-    )
-    return model, rows
+    return dataclasses.replace(model, provenance=json.dumps(provenance)), rows
 
 
 class ConfidenceScore(NamedTuple):
@@ -417,7 +429,7 @@ def compare_with_rule(data: Labelled, model: cf.ConfidenceModel) -> RuleComparis
     if m == 0:
         return RuleComparison(0, math.nan, math.nan)
     p = predict(model, data)
-    order = np.lexsort((data.features[cf.QUANTILE], p))[::-1][:m]
+    order = np.lexsort((data.features[cf.QUANTILE], model.score(data.features), p))[::-1][:m]
     return RuleComparison(
         m, float(data.on_surface[data.obstacle].mean()), float(data.on_surface[order].mean())
     )

@@ -27,7 +27,9 @@ from flylog.ros2.export import export_ros2
 from tests.replay.test_replay import CORRIDOR, SMALL
 
 # A model whose confidence is the fitness's rank: enough to check the field is carried.
-RANK = ConfidenceModel(kind="isotonic", names=("quantile",), knots=(0.0, 1.0), values=(0, 1))
+RANK = ConfidenceModel(
+    kind="isotonic", names=("quantile",), coefficients=(0.0, 1.0), knots=(0.0, 1.0), values=(0, 1)
+)
 
 
 @pytest.fixture(scope="module")
