@@ -167,11 +167,16 @@ def _check_pair(run: LogReader, log: LogReader) -> None:
 
 def _rig_source(run: LogReader) -> LogReader:
     """Where the run's rig is: the run itself (a closed-loop log), else the log its metadata
-    names when that file is there and is the one replayed."""
+    names (as named, else by that name beside the run) when that file is there and is the
+    one replayed."""
     replayed = run.metadata().get(contract.REPLAY_METADATA, {})
     named = replayed.get("log")
-    if contract.LEFT_CALIBRATION in run.topics() or named is None or not Path(named).is_file():
+    if contract.LEFT_CALIBRATION in run.topics() or named is None:
         return run
+    if not Path(named).is_file():  # a relative name: from where replay ran, or beside the run
+        named = str(Path(run.path).parent / Path(named).name)
+        if not Path(named).is_file():
+            return run
     from flylog.metrics.provenance import check_run_log
 
     try:
