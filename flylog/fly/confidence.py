@@ -63,11 +63,13 @@ def fitness_quantile(fitness: np.ndarray) -> np.ndarray:
     if len(valid) == 0:
         return out
     values = fitness[valid]
-    order = np.argsort(values, kind="stable")
-    sorted_values = values[order]
-    lo = np.searchsorted(sorted_values, values, side="left")
-    hi = np.searchsorted(sorted_values, values, side="right")
-    out[valid] = (0.5 * (lo + hi - 1) + 1.0) / len(valid)
+    order = np.argsort(values)
+    ordered = values[order]
+    # Runs of equal values in sorted order: each takes the mean of its positions lo..hi-1.
+    starts = np.flatnonzero(np.r_[True, ordered[1:] != ordered[:-1]])
+    ends = np.r_[starts[1:], len(ordered)]
+    mean_rank = 0.5 * (starts + ends - 1) + 1.0
+    out[valid[order]] = np.repeat(mean_rank, ends - starts) / len(valid)
     return out
 
 

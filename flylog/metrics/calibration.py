@@ -121,18 +121,22 @@ def _labelled_scene(reader: LogReader, log: Path, config: MetricsConfig) -> Labe
 
     def flush() -> None:
         depth, ids = views.render(pose_at(np.array([t for t, _ in batch])))
+        judged = [_judged(cloud.xyz, cloud.fitness, truth.rig) for _, cloud in batch]
+        s = np.repeat(np.arange(len(batch)), [len(j[0]) for j in judged])
+        iu, iv, d = (np.concatenate([j[i] for j in judged]) for i in (1, 2, 3))
+        # the batch's flies together: one call, each against its snapshot's view
+        true_d, _ = views_at(depth, ids, s, iu, iv, d, config.tau, views.block)
+        seen = np.isfinite(true_d)  # the sky judges a fly off every surface, as precision does
+        on = np.zeros(len(d), dtype=bool)
+        on[seen] = np.abs(d[seen] - true_d[seen]) <= config.tau * true_d[seen]
+        bounds = np.searchsorted(s, np.arange(len(batch) + 1))
         for k, (_, cloud) in enumerate(batch):
-            idx, iu, iv, d = _judged(cloud.xyz, cloud.fitness, truth.rig)
-            s = np.full(len(idx), k)
-            true_d, _ = views_at(depth, ids, s, iu, iv, d, config.tau, views.block)
-            seen = np.isfinite(true_d)
-            on = np.zeros(len(idx), dtype=bool)
-            on[seen] = np.abs(d[seen] - true_d[seen]) <= config.tau * true_d[seen]
+            idx = judged[k][0]
             table = cf.features(cloud.fitness, cloud.age, cloud.distinct)
             keep = rule.mask(cloud.xyz, cloud.fitness, cloud.age, cloud.distinct)[idx]
-            # Sky pixels judge a fly as off every surface, as the precision does.
             features = {n: v[idx] for n, v in table.items()}
-            parts.append(Labelled(features, on, np.full(len(idx), len(parts)), keep))
+            labels = on[bounds[k] : bounds[k + 1]]
+            parts.append(Labelled(features, labels, np.full(len(idx), len(parts)), keep))
         batch.clear()
 
     for m in reader.messages([contract.FLIES]):

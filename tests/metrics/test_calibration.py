@@ -55,6 +55,13 @@ def test_invalid_flies_have_no_confidence_and_a_passing_candidate_more():
 def test_fitness_quantile_is_the_mean_rank_among_valid_flies():
     q = cf.fitness_quantile(np.array([3.0, 0.0, 1.0, 3.0, 2.0]))
     np.testing.assert_allclose(q, [3.5 / 4, 0, 1 / 4, 3.5 / 4, 2 / 4])
+    fitness = np.round(np.random.default_rng(0).normal(1, 1, 2000), 2)  # many ties
+    valid = fitness[fitness > 0]
+    below = (valid[None, :] < valid[:, None]).sum(axis=1)
+    equal = (valid[None, :] == valid[:, None]).sum(axis=1)
+    expected = np.zeros(len(fitness))
+    expected[fitness > 0] = (below + (equal + 1) / 2) / len(valid)
+    np.testing.assert_array_equal(cf.fitness_quantile(fitness), expected)
 
 
 def test_ece_and_reliability_of_known_cases():
