@@ -248,3 +248,17 @@ def test_at_picks_the_nearest_snapshot_and_the_cli_writes_it(run, tmp_path):
     with pytest.raises(LogError, match="no /flies"):
         export_ply(CORRIDOR, tmp_path / "two")
     assert not (tmp_path / "two").exists()
+
+
+def test_a_closed_loop_log_exports_its_flies_depth_and_tf_tree(tmp_path):
+    scene = CORRIDOR.parents[1] / "scenes" / "corridor.toml"
+    loop = tmp_path / "loop.mcap"
+    args = ["simulate", str(scene), "--drive", "planner", "--duration", "1"]
+    args += ["--resolution", "160x120", "-o", str(loop)]
+    result = CliRunner().invoke(cli, args)
+    assert result.exit_code == 0, result.output
+    rx.export_run_ros2(loop, tmp_path / "bag")
+    found = read_rosbags(tmp_path / "bag")
+    assert len(found["/tf_static"]) == 1 and len(found["/tf"]) == len(found[rx.PLANNER_ODOM])
+    assert len(found[rx.DEPTH]) == len(found[rx.FLIES]) > 0  # the rig from the log itself
+    assert "/camera/left/image_rect_color" not in found
