@@ -6,10 +6,14 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
 from flylog.cli.common import progress_bar, reports_errors, stdout
+
+if TYPE_CHECKING:
+    from flylog.fly.confidence import ConfidenceModel
 
 
 @click.command()
@@ -93,6 +97,12 @@ def export(
     if sum(x is not None for x in (out_dir, ros2_dir, ply_dir)) != 1:
         msg = "give exactly one of --tum OUTDIR, --ros2 OUT and --ply DIR"
         raise click.UsageError(msg)
+    if at is not None and ply_dir is None:
+        msg = "--at SECONDS picks the snapshot of --ply DIR: give --ply DIR too"
+        raise click.UsageError(msg)
+    if with_log is not None and ros2_dir is None:
+        msg = "--with-log LOG adds a sensor log to --ros2 OUT: give --ros2 OUT too"
+        raise click.UsageError(msg)
     if ply_dir is not None:
         _export_ply(source, ply_dir, at)
         return
@@ -120,19 +130,40 @@ def export(
         stdout.print(f"{name}: {path}")
 
 
-def _export_ply(source: Path, ply_dir: Path, at: float | None) -> None:
+def _confidence(source: Path) -> ConfidenceModel | None:
+    """The packaged confidence model, with a warning when the run was replayed with another
+    engine configuration than the one it was fitted for."""
+    import warnings
+
     from flylog.fly import confidence
+    from flylog.io import open_log
+    from flylog.metrics.calibration import engine_digest
+
+    model = confidence.load()
+    if model is not None and engine_digest(open_log(source)) not in ("", model.engine):
+        warnings.warn(
+            f"{source} was replayed with another engine or obstacle configuration than the "
+            f"confidence model was fitted for (digest {model.engine}): its confidence may "
+            "not be calibrated (docs/export.md#confidence)",
+            UserWarning,
+            stacklevel=2,
+        )
+    return model
+
+
+def _export_ply(source: Path, ply_dir: Path, at: float | None) -> None:
     from flylog.fly.snapshot_export import export_ply
 
     with progress_bar(f"export {source.name}", unit="s") as update:
-        done = export_ply(source, ply_dir, at=at, confidence=confidence.load(), on_progress=update)
+        done = export_ply(
+            source, ply_dir, at=at, confidence=_confidence(source), on_progress=update
+        )
     stdout.print(f"{done.output}: {done.files} PLY files, {done.points} points")
 
 
 def _export_run(
     source: Path, ros2_dir: Path, with_log: Path | None, image_format: str, truth: bool
 ) -> None:
-    from flylog.fly import confidence
     from flylog.ros2.messages import ImageFormat
     from flylog.ros2.run_export import export_run_ros2
 
@@ -143,7 +174,7 @@ def _export_run(
             log=with_log,
             image_format=ImageFormat(image_format),
             truth=truth,
-            confidence=confidence.load(),
+            confidence=_confidence(source),
             on_progress=update,
         )
     stdout.print(f"{summary.output}: {summary.messages} messages on {summary.topics} topics")

@@ -208,6 +208,12 @@ def test_cli_exports_a_run_and_a_log_to_ros2(run, tmp_path):
     assert rx.FLIES in read_rosbags(tmp_path / "r")
     result = runner.invoke(cli, ["export", str(run), "--ros2", str(tmp_path / "r2"), "--ply", "x"])
     assert result.exit_code == 2 and "exactly one of" in result.output
+    result = runner.invoke(cli, ["export", str(run), "--tum", str(tmp_path / "t"), "--at", "1"])
+    assert result.exit_code == 2 and "--at SECONDS picks" in result.output
+    result = runner.invoke(cli, ["export", str(run), "--ply", str(tmp_path / "p")])
+    assert result.exit_code == 0, result.output
+    # the run has 400 flies, the model holds for the default 5000
+    assert "another engine or obstacle configuration" in result.output
     export_ros2(CORRIDOR, tmp_path / "log_bag")  # the sensor log's export is unchanged
     assert rx.FLIES not in read_rosbags(tmp_path / "log_bag")
 
