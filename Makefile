@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 DEMO_DIR := demo-out
 
-.PHONY: demo test lint bench fuzz fixtures experiments docs clean bytecode
+.PHONY: demo test lint bench fuzz fixtures experiments docs clean bytecode confidence
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -56,6 +56,27 @@ docs: $(STAMP)
 
 fixtures: $(STAMP)
 	$(BIN)/python fixtures/regenerate.py
+
+# flylog/fly/confidence.json from simulated runs (docs/export.md#confidence): 8 s at 320x240,
+# the default configuration; fitted on corridor, turn, doorways seeds 0-1, checked on
+# clutter seeds 5 and 6, near-obstacle seed 5 and corridor seed 5. A test checks the file is
+# current for the default configuration.
+CONFIDENCE_DIR ?= confidence-runs
+CONFIDENCE_FIT := corridor:0 turn:0 doorways:0 corridor:1 turn:1 doorways:1
+CONFIDENCE_HELD_OUT := clutter:5 near-obstacle:5 corridor:5 clutter:6
+confidence: $(STAMP)
+	mkdir -p $(CONFIDENCE_DIR)
+	for spec in $(CONFIDENCE_FIT) $(CONFIDENCE_HELD_OUT); do \
+		scene=$${spec%%:*}; seed=$${spec##*:}; n=$(CONFIDENCE_DIR)/$$scene-$$seed; \
+		test -f $$n.run.mcap || { \
+		$(BIN)/flylog simulate fixtures/scenes/$$scene.toml --duration 8 --resolution 320x240 \
+			--seed $$seed -o $$n.mcap && \
+		$(BIN)/flylog replay $$n.mcap --seed $$seed -o $$n.run.mcap; } || exit 1; \
+	done
+	cd $(CONFIDENCE_DIR) && $(CURDIR)/$(BIN)/flylog calibrate \
+		$(foreach s,$(CONFIDENCE_FIT),--fit $(subst :,-,$(s)).run.mcap $(subst :,-,$(s)).mcap) \
+		$(foreach s,$(CONFIDENCE_HELD_OUT),--held-out $(subst :,-,$(s)).run.mcap $(subst :,-,$(s)).mcap) \
+		-o $(CURDIR)/flylog/fly/confidence.json
 
 clean:
 	rm -rf $(VENV) $(DEMO_DIR) .pytest_cache

@@ -59,6 +59,10 @@ _IMAGE_SHOWN = (
 )
 
 
+# The packaged confidence model's calibration (flylog.metrics.calibration).
+_CONFIDENCE_SHOWN = ("confidence_ece", "confidence: expected calibration error", "")
+
+
 def _fmt(value: Any) -> str:
     if value is None or (isinstance(value, float) and math.isnan(value)):
         return "—"
@@ -85,8 +89,9 @@ def _fmt(value: Any) -> str:
     "--output",
     type=OutputPath(dir_okay=False, path_type=Path),
     required=True,
-    help="Per-snapshot table NAME.parquet; NAME.summary.parquet (one row) and "
-    "NAME.obstacles.parquet are written beside it.",
+    help="Per-snapshot table NAME.parquet; NAME.summary.parquet (one row), "
+    "NAME.obstacles.parquet and, for a run with flies, NAME.reliability.parquet (the "
+    "confidence's reliability diagram) are written beside it.",
 )
 @click.option(
     "--config",
@@ -122,8 +127,13 @@ def metrics(
     from flylog.config import from_mapping, read_toml, replace_dotted
     from flylog.io.collisions import Role, check_outputs
     from flylog.metrics.config import MetricsConfig
-    from flylog.metrics.score import score_run, write_metrics
-    from flylog.metrics.tables import check_output_name, obstacles_path, summary_path
+    from flylog.metrics.score import score_run, write_metrics, write_reliability
+    from flylog.metrics.tables import (
+        check_output_name,
+        obstacles_path,
+        reliability_path,
+        summary_path,
+    )
 
     check_output_name(output)  # before the scoring, which takes a while
     inputs = [Role(run, "the run", "run")]
@@ -133,6 +143,7 @@ def metrics(
         Role(output, "the snapshot table", "output"),
         Role(summary_path(output), "the summary table", "output"),
         Role(obstacles_path(output), "the obstacle table", "output"),
+        Role(reliability_path(output), "the reliability table", "output"),
     ]
     check_outputs(inputs, outputs)
 
@@ -144,13 +155,15 @@ def metrics(
     )
     with progress_bar(f"metrics {run.name}", unit="s") as update:
         result = score_run(run, log if log is not None else run, config, on_progress=update)
-    paths = write_metrics(result, output)
+    paths: list[Path] = [*write_metrics(result, output)]
+    reliability = write_reliability(result, output)
+    paths += [reliability] if reliability is not None else []
     table = Table(title=f"metrics of {run}", title_justify="left")
     table.add_column("metric")
     table.add_column("value", justify="right")
     table.add_column("unit")
     shown = _SHOWN if result.summary.get("truth_images") is None else _IMAGE_SHOWN
-    for key, label, unit in shown:
+    for key, label, unit in (*shown, _CONFIDENCE_SHOWN):
         table.add_row(label, _fmt(result.summary[key]), unit)
     stdout.print(table)
     stdout.print("wrote " + ", ".join(str(p) for p in paths))

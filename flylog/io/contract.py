@@ -32,6 +32,9 @@ FLIES = "/flies"
 FLIES_OVERLAY = "/flies/overlay"
 PLANNER_POTENTIAL = "/planner/potential"
 PLANNER_PATH = "/planner/path"
+# The planner's obstacle map: uint8 "occupancy", 100 a detected cell, 99 its inflation by the
+# robot's footprint (what the harmonic field also treats as obstacle), 0 free.
+PLANNER_MAP = "/planner/map"
 PLANNER_COMMAND = "/planner/command"
 
 TRUTH_PREFIX = "/truth/"
@@ -106,6 +109,7 @@ TOPIC_SCHEMAS: MappingProxyType[str, str] = MappingProxyType(
         FLIES_OVERLAY: IMAGE_ANNOTATIONS,
         PLANNER_POTENTIAL: GRID,
         PLANNER_PATH: POSES_IN_FRAME,
+        PLANNER_MAP: GRID,
         PLANNER_COMMAND: COMMAND,
     }
 )

@@ -101,6 +101,8 @@ class MetricsResult:
     obstacles: list[dict[str, Any]]
     summary: dict[str, Any]
     config: MetricsConfig
+    # the confidence's reliability table (flylog.metrics.calibration.reliability), or none
+    reliability: list[dict[str, Any]] = dataclasses.field(default_factory=list)
 
 
 def _number(meta: dict[str, str], key: str, kind: type) -> Any:
@@ -208,7 +210,7 @@ def score_run(
     fingerprint = check_run_log(run, log, replayed)  # before any work: the right log?
     if has_image_truth(log):
         result: MetricsResult = score_image_run(run, log, config)
-        return result
+        return _with_confidence(result, run, log, reader)
     provenance = {
         "log_fingerprint": fingerprint,
         "run_config": run_config_digest(replayed),
@@ -223,7 +225,8 @@ def score_run(
         ahead = [] if first is None else [first]
         stream = itertools.chain(ahead, () if messages is None else messages)
         result = _scored(run, log, config, reader, stream, on_progress, wall0)
-        return dataclasses.replace(result, summary={**result.summary, **provenance})
+        result = dataclasses.replace(result, summary={**result.summary, **provenance})
+        return _with_confidence(result, run, log, reader)
     finally:
         if messages is not None:
             messages.close()  # stops the reading thread if scoring failed
@@ -382,6 +385,36 @@ def _scored(
         **dict.fromkeys(_IMAGE_COLUMNS + _DENSE_COLUMNS, math.nan),
     }
     return MetricsResult(rows, obstacle_rows, summary, config)
+
+
+def _with_confidence(
+    result: MetricsResult, run: str | Path, log: str | Path, reader: LogReader
+) -> MetricsResult:
+    """``result`` with the packaged confidence model's calibration on the run's flies
+    (:mod:`flylog.metrics.calibration`): the summary's ``confidence_ece`` and
+    ``confidence_flies`` (NaN and 0 without /flies or without a model) and the reliability
+    table."""
+    from flylog.fly import confidence
+    from flylog.metrics.calibration import score_confidence
+
+    model = confidence.load()
+    if model is None or contract.FLIES not in reader.topics():
+        summary = {**result.summary, "confidence_ece": math.nan, "confidence_flies": 0}
+        return dataclasses.replace(result, summary=summary)
+    score = score_confidence(run, log, result.config, model)
+    summary = {**result.summary, "confidence_ece": score.ece, "confidence_flies": score.flies}
+    return dataclasses.replace(result, summary=summary, reliability=score.table)
+
+
+def write_reliability(result: MetricsResult, output: str | Path) -> Path | None:
+    """Write the reliability table (``NAME.reliability.parquet`` beside ``output``), when the
+    result has one; returns its path."""
+    if not result.reliability:
+        return None
+    path = tables.reliability_path(Path(output))
+    meta = {tables.METADATA_KEY: json.dumps(to_mapping(result.config))}
+    tables.write_table(path, tables.RELIABILITY_COLUMNS, result.reliability, meta)
+    return path
 
 
 def write_metrics(result: MetricsResult, output: str | Path) -> tuple[Path, Path, Path]:

@@ -24,6 +24,7 @@ from flylog.io.tables import Column, TableWriter, schema
 
 SUMMARY_SUFFIX = ".summary.parquet"
 OBSTACLES_SUFFIX = ".obstacles.parquet"
+RELIABILITY_SUFFIX = ".reliability.parquet"
 METADATA_KEY = "flylog.metrics"
 
 
@@ -54,6 +55,20 @@ SNAPSHOT_COLUMNS = (
     Column("bad1", _F, "", "share of the scored flies off by more than 1 px of disparity"),
     Column("bad2", _F, "", "share of the scored flies off by more than 2 px of disparity"),
     Column("coverage", _F, "", "share of ground-truth cells holding a fly within 2 px"),
+)
+
+# the packaged confidence model's calibration on the run (flylog.metrics.calibration)
+CONFIDENCE_COLUMNS = (
+    Column("confidence_ece", _F, "", "expected calibration error of the flies' confidence"),
+    Column("confidence_flies", _I, "", "valid flies in view on known truth, judged for it"),
+)
+
+RELIABILITY_COLUMNS = (
+    Column("bin_low", _F, "", "lower bound of the confidence bin"),
+    Column("bin_high", _F, "", "upper bound of the confidence bin"),
+    Column("flies", _I, "", "judged flies whose confidence falls in the bin"),
+    Column("mean_confidence", _F, "", "their mean confidence"),
+    Column("on_surface_share", _F, "", "their share within tau of the true surface"),
 )
 
 SUMMARY_COLUMNS = (
@@ -101,6 +116,7 @@ SUMMARY_COLUMNS = (
     Column("sgbm_dense_bad1", _F, "", "sgbm runs: share of matched truth pixels off by > 1 px"),
     Column("sgbm_dense_bad2", _F, "", "sgbm runs: share of matched truth pixels off by > 2 px"),
     Column("sgbm_dense_density", _F, "", "sgbm runs: share of truth pixels the map matched"),
+    *CONFIDENCE_COLUMNS,
 )
 
 OBSTACLE_COLUMNS = (
@@ -147,6 +163,11 @@ def summary_path(path: Path) -> Path:
     if path.name.endswith(SUMMARY_SUFFIX):
         return path
     return path.with_name(path.name.removesuffix(".parquet") + SUMMARY_SUFFIX)
+
+
+def reliability_path(path: Path) -> Path:
+    path = Path(path)
+    return path.with_name(path.name.removesuffix(".parquet") + RELIABILITY_SUFFIX)
 
 
 def obstacles_path(path: Path) -> Path:

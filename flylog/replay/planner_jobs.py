@@ -197,7 +197,8 @@ class PlannerJobs:
         return Outputs(messages)
 
     def _planner_snapshot(self, t_ns: int, robot_pose: Pose2D) -> list[tuple[str, int, Any]]:
-        """The potential and the path the robot would follow from ``robot_pose``, now."""
+        """The potential, the path the robot would follow from ``robot_pose`` and the obstacle
+        map, now."""
         ox, oy = self.planner.origin
         grid = encode.grid(
             self.planner.potential, Pose2D(ox, oy, 0.0), self.planner.cell_size, t_ns,
@@ -206,7 +207,15 @@ class PlannerJobs:
         path = encode.poses_in_frame(
             path_poses(self.planner.path(robot_pose)), t_ns, contract.ODOM_FRAME
         )
-        return [(contract.PLANNER_POTENTIAL, t_ns, grid), (contract.PLANNER_PATH, t_ns, path)]
+        occupancy = encode.occupancy_grid(
+            self.planner.detected_mask, self.planner.obstacle_mask, Pose2D(ox, oy, 0.0),
+            self.planner.cell_size, t_ns, contract.ODOM_FRAME,
+        )  # fmt: skip
+        return [
+            (contract.PLANNER_POTENTIAL, t_ns, grid),
+            (contract.PLANNER_PATH, t_ns, path),
+            (contract.PLANNER_MAP, t_ns, occupancy),
+        ]
 
 
 def path_poses(points: np.ndarray) -> np.ndarray:

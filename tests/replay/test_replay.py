@@ -309,6 +309,7 @@ def test_planner_worker_writes_every_output_on_its_own_nicer_thread():
         (contract.PLANNER_COMMAND, False, worker),
         (contract.PLANNER_POTENTIAL, False, worker),
         (contract.PLANNER_PATH, False, worker),
+        (contract.PLANNER_MAP, False, worker),
     ]
 
 
