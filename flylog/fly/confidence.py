@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from flylog.errors import ConfigError
+from flylog.io.inputs import read_input_text
 from flylog.io.records import FlyCloud
 
 FORMAT = "flylog.confidence/1"
@@ -195,7 +196,7 @@ def from_json(text: str, source: str) -> ConfidenceModel:
 def load(path: str | Path | None = None) -> ConfidenceModel | None:
     """The model at ``path``, or the packaged one (None when the package holds none)."""
     if path is not None:
-        return from_json(Path(path).read_text(encoding="utf-8"), str(path))
+        return from_json(read_input_text(path, "the confidence model"), str(path))
     packaged = resources.files("flylog.fly").joinpath(PACKAGED)
     if not packaged.is_file():
         return None

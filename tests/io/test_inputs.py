@@ -22,6 +22,8 @@ NOT_INPUTS = {
     ("reference_docs.py", "read_text"),
     # a sweep's own cell records, which it writes again when a cell runs again
     ("sweep/work.py", "read_text"),
+    # the confidence model packaged with flylog (importlib.resources), not a user's file
+    ("fly/confidence.py", "read_text"),
     # os.open: the atomic writer's own temporary file and directory (fsync)
     ("io/atomic.py", "open"),
 }
