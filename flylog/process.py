@@ -145,9 +145,15 @@ class _Busy:
     calls = 0
 
 
+def _ignored(signum: int, frame: object) -> None:
+    """A second stop signal, during the clean-up of the first. A Python handler rather than
+    SIG_IGN: a signal already pending when the handler became SIG_IGN makes Python raise
+    "OSError: Signal N ignored due to race condition" wherever the worker then is."""
+
+
 def _on_worker_signal(signum: int, frame: object) -> None:
     for s in WORKER_STOP_SIGNALS:  # a second signal must not interrupt the clean-up
-        signal.signal(s, signal.SIG_IGN)
+        signal.signal(s, _ignored)
     if not _Busy.calls:
         os._exit(128 + signum)  # idle: nothing to clean up, no traceback
     raise WorkerStopped(signum)

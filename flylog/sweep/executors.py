@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import enum
+import gc
 import os
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any, Protocol, TypeVar
@@ -178,7 +179,8 @@ class ProcessPool:
             self._pending = 0
 
     def close(self) -> None:
-        self._pool.shutdown(wait=True, cancel_futures=True)
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
 
     def abort(self) -> None:
         """Cancel the queued calls and stop the running ones: each worker gets SIGTERM,
@@ -193,6 +195,12 @@ class ProcessPool:
                     os.kill(process.pid, signal.SIGTERM)
         for process in processes.values():
             process.join()
+        self._pool.shutdown(wait=True)
+        # Its queues' semaphores are released when collected: now, not at the exit, where
+        # multiprocessing's resource tracker reports them as leaked (the exception that
+        # stopped the sweep keeps its frames, and this pool, alive until then).
+        self._pool = None
+        gc.collect()
 
 
 class RayCluster:
