@@ -44,7 +44,7 @@ import numpy as np
 from .mutate import mutate
 
 ACCEPTED = ("identical", "warned", "recovered", "error")
-FAILURES = ("exception", "silent", "invented", "hang")
+FAILURES = ("exception", "silent", "invented", "miscounted", "hang")
 TIME_LIMIT_S = 5.0
 
 
@@ -68,9 +68,11 @@ def _digest(value: Any, h: Any) -> None:
 
 
 def message_key(m: Any) -> tuple[str, int, str, str]:
+    """A message as compared: a flylog log's LogMessage or a bag's BagMessage."""
     h = hashlib.blake2b(digest_size=16)
     _digest(m.value, h)
-    return (m.topic, m.log_time_ns, m.schema, h.hexdigest())
+    schema = m.schema if hasattr(m, "schema") else m.msgtype
+    return (m.topic, m.log_time_ns, schema, h.hexdigest())
 
 
 @dataclasses.dataclass(frozen=True)
@@ -80,26 +82,46 @@ class Reading:
     topics: tuple[tuple[str, str, int], ...]
     times: tuple[int, int]
     attachments: tuple[tuple[str, str, int, str], ...]
+    metadata: tuple[tuple[str, tuple[tuple[str, str], ...]], ...]
     messages: tuple[tuple[str, int, str, str], ...]
 
 
-def read_whole(path: Path) -> tuple[Reading, list[str]]:
-    """The log read whole, and the damage warnings reading it gave."""
+@dataclasses.dataclass(frozen=True)
+class Damage:
+    """The DamagedLogWarnings of a reading: their lines, and the messages they say were
+    lost (``exact``: False when some were lost uncounted, a cut log's, then a lower bound)."""
+
+    lines: tuple[str, ...]
+    lost: int
+    exact: bool
+
+
+def read_whole(path: Path, kind: str = "log") -> tuple[Reading, Damage]:
+    """The log (``kind`` "bag": a ROS 2 bag's MCAP file, its messages decoded as CDR) read
+    whole, and the damage warnings reading it gave."""
     from flylog.io import DamagedLogWarning, open_log
+    from flylog.io.scan import messages_lost
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         log = open_log(path)
-        topics = tuple((t, i.schema, i.count) for t, i in log.topics().items())
-        times = (log.start_ns, log.end_ns)
+        source: Any = log
+        if kind == "bag":
+            from flylog.ros2.bag import open_bag
+
+            source = open_bag(path)
+        topics = tuple((t, i.schema, i.count) for t, i in source.topics().items())
+        times = (source.start_ns, source.end_ns)
         attachments = tuple(
             (a.name, a.media_type, a.log_time_ns, hashlib.sha256(a.data).hexdigest())
             for a in log.attachments()
         )
-        log.metadata()
-        messages = tuple(message_key(m) for m in log.messages())
-    damage = [str(w.message) for w in caught if issubclass(w.category, DamagedLogWarning)]
-    return Reading(topics, times, attachments, messages), damage
+        metadata = tuple((k, tuple(sorted(v.items()))) for k, v in sorted(log.metadata().items()))
+        messages = tuple(message_key(m) for m in source.messages())
+    found = [w.message for w in caught if issubclass(w.category, DamagedLogWarning)]
+    lost, exact = messages_lost(found)
+    damage = Damage(tuple(str(w) for w in found), lost, exact)
+    return Reading(topics, times, attachments, metadata, messages), damage
 
 
 def _is_subsequence(part: Iterable[Any], whole: Iterable[Any]) -> bool:
@@ -107,31 +129,39 @@ def _is_subsequence(part: Iterable[Any], whole: Iterable[Any]) -> bool:
     return all(any(p == w for w in rest) for p in part)
 
 
-def classify(original: Reading, path: Path) -> tuple[str, str]:
+def classify(original: Reading, path: Path, kind: str = "log") -> tuple[str, str]:
     """The class of reading ``path`` (a mutant of the log ``original`` was read from) and a
-    detail: the warning, the error or the exception."""
+    detail: the warning, the error or the exception. A recovered read's detail starts with
+    the share of the messages kept and whether the warnings counted the loss exactly."""
     from flylog.errors import LogError
 
     try:
-        got, damage = read_whole(path)
+        got, damage = read_whole(path, kind)
     except LogError as exc:
         return "error", str(exc)
     except Exception as exc:
         return "exception", f"{type(exc).__name__}: {exc}"
-    if not damage:
+    if not damage.lines:
         return ("identical", "") if got == original else ("silent", _difference(original, got))
     if got == original:
-        return "warned", damage[0]  # read whole, with a warning about what is damaged
-    if _is_subsequence(got.messages, original.messages) and _is_subsequence(
-        got.attachments, original.attachments
+        return "warned", damage.lines[0]  # read whole, with a warning about what is damaged
+    if not (
+        _is_subsequence(got.messages, original.messages)
+        and _is_subsequence(got.attachments, original.attachments)
+        and _is_subsequence(got.metadata, original.metadata)
     ):
-        kept = len(got.messages) / max(1, len(original.messages))
-        return "recovered", f"kept {kept:.4f} of the messages; {damage[0]}"
-    return "invented", f"{_difference(original, got)}; warned: {damage[0]}"
+        return "invented", f"{_difference(original, got)}; warned: {damage.lines[0]}"
+    missing = len(original.messages) - len(got.messages)
+    if (damage.exact and damage.lost != missing) or (not damage.exact and damage.lost > missing):
+        said = f"{damage.lost}{'' if damage.exact else ' or more'}"
+        return "miscounted", f"{missing} messages lost, the warnings say {said}: {damage.lines}"
+    kept = len(got.messages) / max(1, len(original.messages))
+    counted = "exact" if damage.exact else "bound"
+    return "recovered", f"kept {kept:.4f} {counted}; {damage.lines[0]}"
 
 
 def _difference(a: Reading, b: Reading) -> str:
-    for name in ("topics", "times", "attachments"):
+    for name in ("topics", "times", "attachments", "metadata"):
         if getattr(a, name) != getattr(b, name):
             return f"{name}: {getattr(a, name)} became {getattr(b, name)}"
     return f"messages: {len(a.messages)} became {len(b.messages)}"
@@ -141,18 +171,21 @@ def _difference(a: Reading, b: Reading) -> str:
 
 
 def worker(scratch: Path) -> None:
-    originals: dict[str, tuple[bytes, Reading]] = {}
+    from .mutate import delete_chunks
+
+    originals: dict[tuple[str, str], tuple[bytes, Reading]] = {}
     target = scratch / f"mutant-{os.getpid()}.mcap"
     for line in sys.stdin:
         job = json.loads(line)
-        log = job["log"]
-        if log not in originals:
-            originals[log] = (Path(log).read_bytes(), read_whole(Path(log))[0])
-        data, original = originals[log]
-        mutant, how = mutate(data, np.random.default_rng(job["seed"]))
+        log, kind = job["log"], job.get("kind", "log")
+        if (log, kind) not in originals:
+            originals[log, kind] = (Path(log).read_bytes(), read_whole(Path(log), kind)[0])
+        data, original = originals[log, kind]
+        damage = delete_chunks if job.get("mutation") == "chunks" else mutate
+        mutant, how = damage(data, np.random.default_rng(job["seed"]))
         target.write_bytes(mutant)
-        kind, detail = classify(original, target)
-        print(json.dumps({"seed": job["seed"], "class": kind, "how": how, "detail": detail}))
+        found, detail = classify(original, target, kind)
+        print(json.dumps({"seed": job["seed"], "class": found, "how": how, "detail": detail}))
         sys.stdout.flush()
 
 
@@ -180,15 +213,41 @@ class _Worker:
         self.process.wait()
 
 
+@dataclasses.dataclass(frozen=True)
+class Target:
+    """A file to fuzz: a flylog log or (``kind`` "bag") a ROS 2 bag's MCAP file, damaged by
+    :func:`~tests.io.mutate.mutate` (``mutation`` "bytes") or by deleting whole chunks
+    (:func:`~tests.io.mutate.delete_chunks`, "chunks")."""
+
+    log: Path
+    mutants: int
+    kind: str = "log"
+    mutation: str = "bytes"
+
+    @property
+    def label(self) -> str:
+        return f"{self.log}" + (" (chunks deleted)" if self.mutation == "chunks" else "")
+
+
+def _job(target: Target) -> dict[str, Any]:
+    return {
+        "log": str(target.log),
+        "kind": target.kind,
+        "mutation": target.mutation,
+        "label": target.label,
+    }
+
+
 def run(
-    logs: list[Path], mutants: int, *, workers: int = 2, first_seed: int = 0
+    targets: list[Target], *, workers: int = 2, first_seed: int = 0
 ) -> tuple[dict[str, Counter[str]], list[dict[str, Any]], dict[str, list[float]]]:
-    """Classify ``mutants`` seeded mutants of each log in ``workers`` processes; the counts
-    per log and class, the failing mutants (log, seed, class, damage, detail), and the
-    share of the messages each recovered read kept."""
-    jobs = [{"log": str(log), "seed": first_seed + k} for log in logs for k in range(mutants)][::-1]
-    counts: dict[str, Counter[str]] = {str(log): Counter() for log in logs}
-    kept: dict[str, list[float]] = {str(log): [] for log in logs}
+    """Classify the seeded mutants of each target in ``workers`` processes; the counts per
+    target and class (and of the recovered reads whose loss was counted exactly,
+    ``exact``, or as a lower bound of a cut log, ``bound``), the failing mutants (log,
+    seed, class, damage, detail), and the share of the messages each recovered read kept."""
+    jobs = [{**_job(t), "seed": first_seed + k} for t in targets for k in range(t.mutants)][::-1]
+    counts: dict[str, Counter[str]] = {t.label: Counter() for t in targets}
+    kept: dict[str, list[float]] = {t.label: [] for t in targets}
     failures: list[dict[str, Any]] = []
     with tempfile.TemporaryDirectory(prefix="flylog-fuzz-") as scratch:
         pool = [_Worker(Path(scratch)) for _ in range(max(1, workers))]
@@ -214,16 +273,17 @@ def run(
                         if line
                         else {"class": "exception", "how": "", "detail": "the worker died"}
                     )
-                    counts[w.job["log"]][result["class"]] += 1
+                    counts[w.job["label"]][result["class"]] += 1
                     if result["class"] == "recovered":
-                        kept[w.job["log"]].append(float(result["detail"].split()[1]))
+                        kept[w.job["label"]].append(float(result["detail"].split()[1]))
+                        counts[w.job["label"]][result["detail"].split()[2].rstrip(";")] += 1
                     if result["class"] in FAILURES:
-                        failures.append({"log": w.job["log"], **w.job, **result})
+                        failures.append({**w.job, **result})
                     w.job = None
                 now = time.monotonic()
                 for i, w in enumerate(pool):
                     if w.job is not None and now - w.started > TIME_LIMIT_S:
-                        counts[w.job["log"]]["hang"] += 1
+                        counts[w.job["label"]]["hang"] += 1
                         failures.append({**w.job, "class": "hang", "how": "", "detail": ""})
                         w.stop()
                         pool[i] = _Worker(Path(scratch))
@@ -282,6 +342,20 @@ def main(argv: list[str] | None = None) -> int:
         metavar="BYTES",
         help="also fuzz a copy of each log in lz4 chunks of BYTES (many chunks)",
     )
+    parser.add_argument(
+        "--chunk-deletions",
+        type=int,
+        default=0,
+        metavar="N",
+        help="also N mutants of each lz4 copy with one to three whole chunks deleted",
+    )
+    parser.add_argument(
+        "--bag-mutants",
+        type=int,
+        default=0,
+        metavar="N",
+        help="also N mutants of each log's `flylog export --ros2` bag, read as a bag",
+    )
     parser.add_argument("--worker", type=Path, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.worker is not None:
@@ -289,20 +363,32 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="flylog-fuzz-logs-") as copies:
-        logs = list(args.logs)
-        if args.lz4_copy:
-            for log in args.logs:
+        targets = [Target(log, args.mutants) for log in args.logs]
+        for log in args.logs:
+            if args.lz4_copy:
                 copy = Path(copies) / f"{log.stem}.lz4-{args.lz4_copy}.mcap"
-                logs.append(rechunked(log, copy, chunk_size=args.lz4_copy))
-        counts, failures, kept = run(logs, args.mutants, workers=args.workers, first_seed=args.seed)
-    for log, found in counts.items():
+                rechunked(log, copy, chunk_size=args.lz4_copy)
+                targets.append(Target(copy, args.mutants))
+                if args.chunk_deletions:
+                    targets.append(Target(copy, args.chunk_deletions, mutation="chunks"))
+            if args.bag_mutants:
+                from flylog.ros2.export import export_ros2
+
+                bag = export_ros2(log, Path(copies) / f"{log.stem}-bag").output
+                targets.append(Target(bag / f"{bag.name}.mcap", args.bag_mutants, kind="bag"))
+        counts, failures, kept = run(targets, workers=args.workers, first_seed=args.seed)
+    for label, found in counts.items():
         shown = ", ".join(f"{c} {found[c]}" for c in (*ACCEPTED, *FAILURES))
-        print(f"{log}: {sum(found.values())} mutants: {shown}")
-        if kept[log]:
-            print(f"  recovered reads kept {100 * np.mean(kept[log]):.1f} % of the messages")
+        print(f"{label}: {sum(found[c] for c in (*ACCEPTED, *FAILURES))} mutants: {shown}")
+        if kept[label]:
+            print(
+                f"  recovered reads kept {100 * np.mean(kept[label]):.1f} % of the messages; "
+                f"their warnings counted the loss exactly in {found['exact']}, as a lower "
+                f"bound (a cut log) in {found['bound']}"
+            )
     for f in failures[:20]:
-        print(f"FAIL {f['class']}: {f['log']} seed {f['seed']} ({f['how']}): {f['detail']}")
-    total = sum(sum(c.values()) for c in counts.values())
+        print(f"FAIL {f['class']}: {f['label']} seed {f['seed']} ({f['how']}): {f['detail']}")
+    total = sum(sum(c[k] for k in (*ACCEPTED, *FAILURES)) for c in counts.values())
     print(f"{total} mutants in {time.perf_counter() - t0:.0f} s")
     return 1 if failures else 0
 
