@@ -1,21 +1,30 @@
 """Fuzzing the reader: seeded mutants of a log (:mod:`tests.io.mutate`), each read whole by
-``flylog.io.open_log`` in a worker process with a time limit, and classified.
+``flylog.io.open_log`` (a ROS 2 bag's MCAP file by ``flylog.ros2.bag.open_bag``) in a worker
+process with a time limit, and classified.
 
 Accepted outcomes:
 
 - ``identical``: read like the original, no warning;
 - ``warned``: read like the original, with a DamagedLogWarning naming what is damaged (a
   summary, say, when the data section holds every message);
-- ``recovered``: a DamagedLogWarning (or TruncatedLogWarning) names what was skipped and the
-  messages lost, and what was read is the original's messages in order with some left out
-  (nothing changed, nothing invented);
+- ``recovered``: a DamagedLogWarning (or TruncatedLogWarning) names what was skipped and
+  counts the messages lost, and what was read is the original's messages, attachments and
+  metadata records in order with some left out (nothing changed, nothing invented). The
+  warnings' count (:func:`flylog.io.scan.messages_lost`) must be the number of messages
+  missing (``exact``), or for a cut log, whose counts lay in its lost summary, at most
+  that number and said to be a lower bound (``bound``);
 - ``error``: a flylog LogError.
 
 Failures: ``exception`` (any other exception), ``silent`` (a read that differs from the
-original with no warning), ``invented`` (a warned read holding a message the original lacks
-or a value it changed), ``hang`` (no answer within the limit). "Read whole" is the topics,
-time range, attachments and every decoded message; metadata records are read (to fail
-cleanly or not at all) but not compared: MCAP gives them no checksum.
+original with no warning), ``invented`` (a warned read holding a message, attachment or
+metadata record the original lacks, or a value it changed), ``miscounted`` (the warnings'
+count of the messages lost is wrong), ``hang`` (no answer within the limit). "Read whole" is
+the topics, time range, attachments, metadata records and every decoded message.
+
+Each log given is first copied as flylog writes logs (its records byte for byte, its
+metadata records with their checksums); ``--lz4-copy`` adds a copy in many lz4 chunks,
+``--chunk-deletions`` mutants of that copy with whole chunks deleted, ``--bag-mutants``
+mutants of the log's ``flylog export --ros2`` bag.
 
 ``python -m tests.io.fuzz LOG... --mutants N`` prints the counts per log and class and
 exits 1 on any failure (``make fuzz``).
@@ -46,6 +55,7 @@ from .mutate import mutate
 ACCEPTED = ("identical", "warned", "recovered", "error")
 FAILURES = ("exception", "silent", "invented", "miscounted", "hang")
 TIME_LIMIT_S = 5.0
+LOG_CHUNK_SIZE = 4 << 20  # LogConfig's: a small log is one chunk
 
 
 def _digest(value: Any, h: Any) -> None:
@@ -296,9 +306,13 @@ def run(
 
 
 def rechunked(source: Path, target: Path, *, chunk_size: int, compression: str = "lz4") -> Path:
-    """``target``: ``source``'s records, byte for byte, in chunks of ``chunk_size`` bytes."""
+    """``target``: ``source``'s records, byte for byte, in chunks of ``chunk_size`` bytes;
+    its metadata records with their checksums and its header marked, as flylog's writer
+    writes them (docs/log-integrity.md)."""
     from mcap.reader import make_reader
     from mcap.writer import CompressionType, Writer
+
+    from flylog.io import contract
 
     with source.open("rb") as src, target.open("wb") as fh:
         reader = make_reader(src)
@@ -308,9 +322,11 @@ def rechunked(source: Path, target: Path, *, chunk_size: int, compression: str =
             compression=CompressionType[compression.upper()],
             use_summary_offsets=False,
         )
-        writer.start()
+        writer.start(profile="", library=f"fuzz{contract.METADATA_CRC_MARK}")
         for m in reader.iter_metadata():
-            writer.add_metadata(m.name, m.metadata)
+            values = {k: v for k, v in m.metadata.items() if k != contract.METADATA_CRC_KEY}
+            values[contract.METADATA_CRC_KEY] = contract.metadata_crc(m.name, values)
+            writer.add_metadata(m.name, values)
         for a in reader.iter_attachments():
             writer.add_attachment(a.create_time, a.log_time, a.name, a.media_type, a.data)
         schemas: dict[int, int] = {}
@@ -363,8 +379,13 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="flylog-fuzz-logs-") as copies:
-        targets = [Target(log, args.mutants) for log in args.logs]
+        targets = []
         for log in args.logs:
+            # the log as flylog writes one today (its metadata checksummed), records kept
+            current = rechunked(
+                log, Path(copies) / log.name, chunk_size=LOG_CHUNK_SIZE, compression="zstd"
+            )
+            targets.append(Target(current, args.mutants))
             if args.lz4_copy:
                 copy = Path(copies) / f"{log.stem}.lz4-{args.lz4_copy}.mcap"
                 rechunked(log, copy, chunk_size=args.lz4_copy)
