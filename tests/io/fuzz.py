@@ -405,7 +405,7 @@ def main(argv: list[str] | None = None) -> int:
             print(
                 f"  recovered reads kept {100 * np.mean(kept[label]):.1f} % of the messages; "
                 f"their warnings counted the loss exactly in {found['exact']}, as a lower "
-                f"bound (a cut log) in {found['bound']}"
+                f"bound (a cut log, a span read past) in {found['bound']}"
             )
     for f in failures[:20]:
         print(f"FAIL {f['class']}: {f['label']} seed {f['seed']} ({f['how']}): {f['detail']}")
