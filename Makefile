@@ -35,11 +35,12 @@ test: lint
 bench: $(STAMP)
 	$(BIN)/python -m tests.benchmarks
 
-# The reader on 10,000 seeded mutants: 5,000 of a one-chunk fixture and 5,000 of its copy in
-# lz4 chunks of 64 KiB (17 chunks), two worker processes, 5 s a mutant (docs/log-integrity.md).
+# The reader on 12,000 seeded mutants: 5,000 of a one-chunk fixture, 5,000 of its copy in lz4
+# chunks of 64 KiB (17 chunks), 1,000 of that copy with whole chunks deleted and 1,000 of its
+# ROS 2 export read as a bag; two worker processes, 5 s a mutant (docs/log-integrity.md).
 fuzz: $(STAMP)
 	$(BIN)/python -m tests.io.fuzz fixtures/logs/near-obstacle.mcap --lz4-copy 65536 \
-		--mutants 5000 --workers 2
+		--mutants 5000 --chunk-deletions 1000 --bag-mutants 1000 --workers 2
 
 # docs/experiments/ as committed: three experiments at their defaults, the closed loop with
 # 10 seeds; each command runs its cells on a pool of all the cores (docs/experiments/README.md).

@@ -139,10 +139,13 @@ def _groups(bases: tuple[Path, ...], candidates: tuple[Path, ...], tolerances: d
     from flylog.metrics.compare import compare_files
     from flylog.metrics.gate import Group, group_label
     from flylog.sweep.compare import compare_results
-    from flylog.sweep.results import is_results
+    from flylog.sweep.results import damaged_inputs, is_results, read_results
 
     if len(bases) == len(candidates) == 1 and is_results(bases[0]) and is_results(candidates[0]):
         result = compare_results(bases[0], candidates[0], tolerances)
+        for side, path in (("base", bases[0]), ("candidate", candidates[0])):
+            for line in damaged_inputs(read_results(path)[1]):
+                stderr.print(f"[yellow]note:[/] the {side}'s {line}", soft_wrap=True)
         for side, keys in (("base", result.only_base), ("candidate", result.only_candidate)):
             for key in keys:
                 stderr.print(f"[yellow]warning:[/] only the {side} has {group_label(key)}")

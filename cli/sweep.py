@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import signal
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -11,7 +12,17 @@ from typing import Any
 
 import click
 
-from flylog.cli.common import EXIT_INTERRUPTED, OutputPath, reports_errors, stderr, stdout
+from flylog.budget import SWEEP_MAX_CELLS, SWEEP_MAX_OUTPUT_SIZE
+from flylog.cli.common import (
+    EXIT_INTERRUPTED,
+    ByteSize,
+    OutputPath,
+    Terminated,
+    human_bytes,
+    reports_errors,
+    stderr,
+    stdout,
+)
 
 EXIT_FAILED_CELLS = 1
 
@@ -51,6 +62,13 @@ def _cells_bar() -> Iterator[Callable[[Any], None]]:
             bar.update(tasks[p.phase], completed=p.done, total=p.total, state=state)
 
         yield update
+
+
+def _cells_kept(output: Path) -> int:
+    """The cells of the sweep in ``output`` whose outputs are whole (their cell.json)."""
+    from flylog.sweep.cells import RUNS_DIR
+
+    return sum(1 for _ in (output / RUNS_DIR).glob("*/cell.json"))
 
 
 def _pm(mean: float, sd: float, n: int) -> str:
@@ -97,6 +115,23 @@ def _pm(mean: float, sd: float, n: int) -> str:
 @click.option(
     "--force", is_flag=True, help="Run every cell (and simulate every input) again. [default: off]"
 )
+@click.option(
+    "--max-cells",
+    type=click.IntRange(min=1),
+    default=SWEEP_MAX_CELLS,
+    show_default=True,
+    metavar="N",
+    help="Refuse a SPEC of more than N cells (inputs × variants × grid points × seeds), "
+    "before anything is planned or written.",
+)
+@click.option(
+    "--max-output-size",
+    type=ByteSize(),
+    default=SWEEP_MAX_OUTPUT_SIZE,
+    metavar="SIZE",
+    help="Refuse a sweep whose cells and simulated inputs would write more than SIZE "
+    f"(estimated, e.g. 100G). [default: {human_bytes(SWEEP_MAX_OUTPUT_SIZE)}]",
+)
 @reports_errors
 def sweep(
     spec: Path,
@@ -105,6 +140,8 @@ def sweep(
     workers: int | None,
     address: str | None,
     force: bool,
+    max_cells: int,
+    max_output_size: int,
 ) -> None:
     """Run the sweep SPEC (TOML: inputs × seeds × a grid of configuration keys × variants;
     see docs/sweep.md): each cell replays its log (or runs the closed loop) and scores it.
@@ -112,20 +149,32 @@ def sweep(
     from rich.table import Table
 
     from flylog.sweep.executors import Backend
+    from flylog.sweep.limits import SweepLimits
     from flylog.sweep.runner import SweepOptions, run_sweep
     from flylog.sweep.summary import MAIN_METRICS, summarize
 
-    options = SweepOptions(Backend(backend), workers=workers, address=address, force=force)
+    limits = SweepLimits(max_cells=max_cells, max_output_size=max_output_size)
+    options = SweepOptions(
+        Backend(backend), workers=workers, address=address, force=force, limits=limits
+    )
     try:
         with _cells_bar() as update:
             result = run_sweep(spec, output, options, on_progress=update)
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, Terminated) as exc:
+        signum = exc.signum if isinstance(exc, Terminated) else signal.SIGINT
+        how = (
+            "interrupted"
+            if signum == signal.SIGINT
+            else f"stopped by {signal.Signals(signum).name}"
+        )
+        kept = _cells_kept(output)
         stderr.print(
-            f"[red]interrupted[/]: the cells finished so far are kept under {output}/runs "
-            "(the same command resumes the sweep); results.parquet was not written",
+            f"[red]{how}[/]: {kept} finished cell(s) kept under {output}/runs (the same "
+            "command resumes the sweep); the cells running were stopped and their partial "
+            "outputs removed; results.parquet was not written",
             soft_wrap=True,
         )
-        sys.exit(EXIT_INTERRUPTED)
+        sys.exit(EXIT_INTERRUPTED if signum == signal.SIGINT else 128 + signum)
     keys = result.spec.grid_keys
     table = Table(title=f"sweep {spec.name}: mean ± sd per grid point", title_justify="left")
     for name in ("variant", *keys, "cells ok", "failed"):

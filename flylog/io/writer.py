@@ -108,7 +108,8 @@ class LogWriter:
             # `mcap doctor` reports as errors; readers find the summary without offsets.
             use_summary_offsets=False,
         )
-        self._writer.start(profile="", library=f"flylog/{flylog.__version__}")
+        library = f"flylog/{flylog.__version__}{contract.METADATA_CRC_MARK}"
+        self._writer.start(profile="", library=library)
         return self
 
     def __exit__(
@@ -204,7 +205,9 @@ class LogWriter:
         if bad:
             msg = f"metadata '{name}' must map strings to strings; got {bad!r}"
             raise LogError(msg)
-        self._live().add_metadata(name, dict(values))
+        checked = {k: v for k, v in values.items() if k != contract.METADATA_CRC_KEY}
+        checked[contract.METADATA_CRC_KEY] = contract.metadata_crc(name, checked)
+        self._live().add_metadata(name, checked)
 
 
 def _schema_of(topic: str, message: Any) -> str:

@@ -37,6 +37,7 @@ from flylog.io.atomic import part_stem
 from flylog.io.decode import image as rgb_of
 from flylog.io.decode import stamp_ns
 from flylog.ros2 import types
+from flylog.ros2.bagwriter import open_bag_writer
 from flylog.ros2.messages import TF_STATIC_QOS, Builder, ImageFormat
 from flylog.ros2.source import GOAL_KEY, SCENE_KEY
 
@@ -70,11 +71,9 @@ class _Bag:
     """A rosbags writer with connections made on first use."""
 
     def __init__(self, path: Path) -> None:
-        from rosbags.rosbag2 import StoragePlugin, Writer
-
         self.store = types.standard_typestore()
         self.build = Builder(self.store)
-        self.writer = Writer(path, version=9, storage_plugin=StoragePlugin.MCAP)
+        self.writer = open_bag_writer(path)
         self._connections: dict[str, Any] = {}
         self.count = 0
 

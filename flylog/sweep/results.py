@@ -46,6 +46,19 @@ TAIL_COLUMNS = (
         "s",
         "CPU time of the worker process over the cell, all its threads",
     ),
+    Column(
+        "input_messages_lost",
+        "int64",
+        "",
+        "messages of the cell's input lost to damage, as its reading warned (0: none)",
+    ),
+    Column(
+        "input_warnings",
+        "string",
+        "",
+        "the warnings of the cell's run, one a line (empty: none): a damaged, truncated "
+        "or incomplete input",
+    ),
     Column("status", "string", "", "ok, or failed (the sweep went on)"),
     Column("error", "string", "", "why the cell failed (null if ok)"),
     Column("run_dir", "string", "", "the cell's outputs, relative to the sweep's directory"),
@@ -106,6 +119,8 @@ def cell_row(cell: Cell, outcome: Mapping[str, Any], out_dir: Path) -> dict[str,
     row.update(
         cell_wall_s=outcome.get("cell_wall_s"),
         cell_cpu_s=outcome.get("cell_cpu_s"),
+        input_messages_lost=int(outcome.get("input_messages_lost") or 0),
+        input_warnings=outcome.get("input_warnings") or "",
         status=outcome.get("status"),
         error=outcome.get("error"),
         run_dir=str(cell.directory.relative_to(out_dir)),
@@ -167,3 +182,21 @@ def read_results(path: Path) -> tuple[list[str], list[dict[str, Any]]]:
         msg = f"{found}: not a sweep's results (no {METADATA_KEY} metadata; made by flylog sweep)"
         raise LogError(msg)
     return list(json.loads(raw)["grid_keys"]), table.to_pylist()
+
+
+def damaged_inputs(rows: Sequence[Mapping[str, Any]]) -> list[str]:
+    """A line for each row whose input lost messages or was read with a warning (tables
+    without these columns have none)."""
+    out = []
+    for row in rows:
+        lost = row.get("input_messages_lost") or 0
+        said = (row.get("input_warnings") or "").strip()
+        if lost or said:
+            first = said.splitlines()[0] if said else ""
+            more = len(said.splitlines()) - 1
+            out.append(
+                f"cell {row.get('cell')} ({row.get('run_dir')}): {lost} input messages lost"
+                + (f"; {first}" if first else "")
+                + (f" (and {more} more warnings)" if more > 0 else "")
+            )
+    return out

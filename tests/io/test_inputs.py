@@ -24,6 +24,10 @@ NOT_INPUTS = {
     ("sweep/work.py", "read_text"),
     # the confidence model packaged with flylog (importlib.resources), not a user's file
     ("fly/confidence.py", "read_text"),
+    # the bag's MCAP file, opened "xb" to write inside the export's staging directory
+    ("ros2/bagwriter.py", "open"),
+    # the sweep folder's lock file, opened to hold an fcntl lock, never read as an input
+    ("sweep/lock.py", "open"),
     # os.open: the atomic writer's own temporary file and directory (fsync)
     ("io/atomic.py", "open"),
 }
