@@ -84,9 +84,10 @@ def _fmt(value: Any) -> str:
     "-o",
     "--output",
     type=click.Path(dir_okay=False, path_type=Path),
-    required=True,
+    default=None,
     help="Per-snapshot table NAME.parquet; NAME.summary.parquet (one row) and "
-    "NAME.obstacles.parquet are written beside it.",
+    "NAME.obstacles.parquet are written beside it. [default: beside the run, "
+    "RUN.metrics.parquet for RUN.mcap]",
 )
 @click.option(
     "--config",
@@ -105,7 +106,7 @@ def _fmt(value: Any) -> str:
 def metrics(
     run: Path,
     log: Path | None,
-    output: Path,
+    output: Path | None,
     config_file: Path | None,
     tau: float | None,
     goal_tolerance: float | None,
@@ -123,8 +124,14 @@ def metrics(
     from flylog.io.collisions import Role, check_outputs
     from flylog.metrics.config import MetricsConfig
     from flylog.metrics.score import score_run, write_metrics
-    from flylog.metrics.tables import check_output_name, obstacles_path, summary_path
+    from flylog.metrics.tables import (
+        check_output_name,
+        default_output,
+        obstacles_path,
+        summary_path,
+    )
 
+    output = default_output(run) if output is None else output
     check_output_name(output)  # before the scoring, which takes a while
     inputs = [Role(run, "the run", "run")]
     inputs += [Role(log, "the sensor log", "log")] if log is not None else []

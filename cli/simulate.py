@@ -134,18 +134,21 @@ def simulate(
     max_output_size: int,
     max_memory: int,
 ) -> None:
-    """Simulate the robot in SCENE (a TOML scene file) and record stereo frames, sonar,
-    odometry and ground truth as an MCAP log.
+    """Simulate the robot in SCENE and record stereo frames, sonar, odometry and ground
+    truth as an MCAP log. SCENE is a TOML scene file or the name of a scene bundled with
+    flylog: corridor, turn, near-obstacle, clutter, doorways.
 
     A job whose estimated output or peak memory is over --max-output-size or --max-memory
     is refused before it starts, with the estimate."""
     from flylog.budget import Limits
     from flylog.io.collisions import Role, check_outputs
     from flylog.io.writer import Compression, LogConfig
+    from flylog.scene.bundled import resolve_scene
     from flylog.scene.load import load_scene
     from flylog.sim.run import SimulationOptions
     from flylog.sim.run import simulate as run_simulation
 
+    scene = resolve_scene(scene)
     check_outputs(
         [Role(scene, "the scene", "scene")]
         + ([Role(config_file, "the configuration", "config_file")] if config_file else []),

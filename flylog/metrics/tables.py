@@ -138,6 +138,13 @@ def check_output_name(path: Path) -> None:
         raise OutputError(msg, parameter="output")
 
 
+def default_output(run: Path) -> Path:
+    """Where ``flylog metrics RUN`` writes without ``-o``: beside the run, ``NAME.metrics.parquet``
+    for ``NAME.mcap`` (``NAME.parquet`` is the replay's own step table)."""
+    run = Path(run)
+    return run.with_name(run.stem + ".metrics.parquet")
+
+
 def summary_path(path: Path) -> Path:
     """``NAME.summary.parquet`` beside ``NAME.parquet`` (a summary path is kept as is)."""
     path = Path(path)
