@@ -1,9 +1,9 @@
 """``make demo``: the main job on the bundled default scene, as a user would run it.
 
-Simulates the bundled scene ``corridor`` (``fixtures/scenes/corridor.toml``), replays the log through the fly engine and the
-planner, scores the run against ground truth, prints the summary and draws the run on one
-HTML page (``report.html``). Outputs go to the directory given as the first argument
-(default ``demo-out``).
+Simulates the bundled scene ``corridor`` (``fixtures/scenes/corridor.toml``), replays the
+log through the fly engine and the planner, scores the run against ground truth, prints the
+summary and draws the run on one HTML page (``report.html``). Outputs go to the directory
+given as the first argument (default ``demo-out``).
 """
 
 from __future__ import annotations

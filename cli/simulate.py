@@ -187,7 +187,7 @@ def simulate(
 
     elif config_file is not None:
         raise click.UsageError("--config goes with --drive planner")
-    with progress_bar(f"simulate {loaded.name}", unit="frames") as update:
+    with progress_bar(f"simulate {loaded.name}", unit="frames", kernels=True) as update:
         summary = run_simulation(loaded, output, options, make_driver=make_driver, on_frame=update)
     speed = summary.duration / summary.wall_seconds
     stdout.print(

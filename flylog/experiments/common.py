@@ -59,7 +59,7 @@ class ExperimentOptions:
     def scene_path(self, name: str) -> Path:
         path = self.scenes / f"{name}.toml"
         if not path.is_file():
-            msg = f"{path}: no such scene file (the experiments use flylog's bundled scenes, {SCENES})"
+            msg = f"{path}: no such scene file (flylog's bundled scenes are in {SCENES})"
             raise ConfigError(msg)
         return path
 
