@@ -118,16 +118,18 @@ def experiment(
 
 
 def _print_result(result, description: str) -> None:
-    from rich.table import Table
-
+    from flylog.cli.tables import print_fitted
     from flylog.experiments.common import format_cell
 
-    table = Table(title=f"{result.name}: {result.table.title}", title_justify="left")
-    for column in result.table.columns:
-        table.add_column(column.header, overflow="fold")
-    for row in result.table.rows:
-        table.add_row(*(format_cell(row.get(c.key), c.fmt) for c in result.table.columns))
-    stdout.print(table)
+    columns = result.table.columns
+    rows = [[format_cell(row.get(c.key), c.fmt) for c in columns] for row in result.table.rows]
+    print_fitted(
+        stdout,
+        f"{result.name}: {result.table.title}",
+        [c.header for c in columns],
+        rows,
+        right=range(1, len(columns)),
+    )
     for line in result.findings:
         stdout.print(f"- {line}", soft_wrap=True)
     stdout.print(

@@ -118,8 +118,7 @@ def metrics(
     disparity images, no scene): precision/recall, disparity error, bad1, bad2 and coverage
     of the flies (or SGBM's points, and its dense map). Writes Parquet tables; prints the
     summary."""
-    from rich.table import Table
-
+    from flylog.cli.tables import print_fitted
     from flylog.config import from_mapping, read_toml, replace_dotted
     from flylog.io.collisions import Role, check_outputs
     from flylog.metrics.config import MetricsConfig
@@ -152,12 +151,7 @@ def metrics(
     with progress_bar(f"metrics {run.name}", unit="s") as update:
         result = score_run(run, log if log is not None else run, config, on_progress=update)
     paths = write_metrics(result, output)
-    table = Table(title=f"metrics of {run}", title_justify="left")
-    table.add_column("metric")
-    table.add_column("value", justify="right")
-    table.add_column("unit")
     shown = _SHOWN if result.summary.get("truth_images") is None else _IMAGE_SHOWN
-    for key, label, unit in shown:
-        table.add_row(label, _fmt(result.summary[key]), unit)
-    stdout.print(table)
+    rows = [[label, _fmt(result.summary[key]), unit] for key, label, unit in shown]
+    print_fitted(stdout, f"metrics of {run}", ["metric", "value", "unit"], rows, right=[1])
     stdout.print("wrote " + ", ".join(str(p) for p in paths))
