@@ -109,7 +109,9 @@ def experiment(
         flies=flies,
         keep_logs=keep_logs,
     )
-    with progress_bar(f"experiment {', '.join(names)}", unit="cells") as update:
+    # The bar counts the cells' expected work, log seconds simulated and replayed: its ETA
+    # weighs each cell by its length (flylog.experiments.parallel.run_plans).
+    with progress_bar(f"experiment {', '.join(names)}", unit="log s") as update:
         results = run_experiments(
             names, output, options, workers=workers or default_workers(), on_progress=update
         )
