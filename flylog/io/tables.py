@@ -169,3 +169,42 @@ class TableWriter:
             if self._writer is not None:
                 self._writer.close()
             self._tmp.unlink(missing_ok=True)
+
+
+class ColumnInfo(NamedTuple):
+    """A column of a Parquet file as ``flylog describe`` shows it."""
+
+    name: str
+    type: str
+    unit: str
+    description: str
+
+
+def describe_table(path: str | os.PathLike[str]) -> tuple[int, list[ColumnInfo]]:
+    """The row count and columns of the Parquet file ``path``, each with its unit and
+    description from the file's ``flylog.columns`` key-value metadata (else the field's own
+    metadata; empty for a table flylog did not write). LogError if it is not Parquet."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from flylog.errors import LogError
+
+    try:
+        meta = pq.ParquetFile(path).metadata
+        arrow = pq.read_schema(path)
+    except (pa.ArrowInvalid, OSError) as exc:
+        msg = f"{path}: not a readable Parquet file ({exc})"
+        raise LogError(msg) from None
+    kv = arrow.metadata or {}
+    try:
+        documented = json.loads(kv.get(COLUMNS_METADATA_KEY.encode(), b"{}"))
+    except (json.JSONDecodeError, UnicodeDecodeError):
+        documented = {}
+    out = []
+    for field in arrow:
+        own = {k.decode(): v.decode() for k, v in (field.metadata or {}).items()}
+        doc = documented.get(field.name, own) if isinstance(documented, dict) else own
+        out.append(
+            ColumnInfo(field.name, str(field.type), doc.get("unit", ""), doc.get("description", ""))
+        )
+    return meta.num_rows, out

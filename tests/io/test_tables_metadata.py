@@ -35,3 +35,21 @@ def test_metrics_tables_carry_them_beside_their_own_metadata(tmp_path):
     columns = json.loads(kv[COLUMNS_METADATA_KEY.encode()])
     assert list(columns) == [c.name for c in SUMMARY_COLUMNS]
     assert columns["ate_m"]["unit"] == "m"
+
+
+def test_flylog_describe_shows_each_columns_unit_and_meaning(tmp_path):
+    from click.testing import CliRunner
+
+    from flylog.cli.main import cli
+
+    path = tmp_path / "steps.parquet"
+    with TableWriter(path, (Column("t_s", "float64", "s", "log time of the tick"),)) as table:
+        table.append({"t_s": 0.5})
+    got = CliRunner().invoke(cli, ["describe", str(path)])
+    assert got.exit_code == 0, got.output
+    assert "1 rows, 1 columns" in got.output
+    line = next(x for x in got.output.splitlines() if "t_s" in x)
+    assert "double" in line and " s " in line and "log time of the tick" in line
+    (tmp_path / "not.parquet").write_text("text")
+    bad = CliRunner().invoke(cli, ["describe", str(tmp_path / "not.parquet")])
+    assert bad.exit_code == 2 and "not a readable Parquet file" in bad.output
