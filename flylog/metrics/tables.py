@@ -30,9 +30,9 @@ _F, _I, _B, _S = pa.float64(), pa.int64(), pa.bool_(), pa.string()
 SNAPSHOT_COLUMNS = (
     Column("stamp_ns", _I, "ns", "log time of the /flies snapshot"),
     Column("t_s", _F, "s", "time since the first true pose"),
-    Column("true_x", _F, "m", "true position x at the snapshot (interpolated)"),
-    Column("true_y", _F, "m", "true position y"),
-    Column("true_theta", _F, "rad", "true heading"),
+    Column("true_x_m", _F, "m", "true position x at the snapshot (interpolated)"),
+    Column("true_y_m", _F, "m", "true position y"),
+    Column("true_theta_rad", _F, "rad", "true heading"),
     Column("flies", _I, "", "flies in the snapshot"),
     Column("obstacle_flies", _I, "", "flies taken for obstacles (the run's rule)"),
     Column("in_view", _I, "", "obstacle flies projecting inside the left image"),
@@ -107,7 +107,7 @@ OBSTACLE_COLUMNS = (
     Column("first_visible_s", _F, "s", "first snapshot with min_visible_pixels on it"),
     Column("first_detected_s", _F, "s", "first snapshot since with min_detecting_flies on it"),
     Column("latency_s", _F, "s", "first_detected_s - first_visible_s"),
-    Column("max_visible_pixels", _I, "px", "most pixels of the view it ever covered"),
+    Column("max_visible_px", _I, "px", "most pixels of the view it ever covered"),
     Column("max_flies_on", _I, "", "most obstacle flies ever on it"),
 )
 

@@ -42,20 +42,22 @@ _F, _I, _S = "float64", "int64", "string"
 
 # RUN.parquet: one row per planner tick (the README's table is made from this).
 STEP_COLUMNS = (
-    Column("t", _F, "s", "log time of the planner tick"),
+    Column("t_s", _F, "s", "log time of the planner tick"),
     Column("generation", _I, "", "generations (sgbm: frames matched) behind what the planner saw"),
     Column("evaluations", _I, "", "fitness evaluations so far (sgbm: the distinctness test's)"),
     Column("valid_flies", _I, "", "flies inside both images, with positive fitness (sgbm: points)"),
     Column("obstacle_flies", _I, "", "flies taken for obstacles (the [obstacles] rule)"),
     Column("best_fitness", _F, "", "best fitness of the population the planner saw"),
     Column("median_fitness", _F, "", "median fitness of its valid flies"),
-    Column("image_latency", _F, "s", "tick time − stamp of the images those flies were scored on"),
-    Column("odom_latency", _F, "s", "tick time − stamp of the newest odometry"),
-    Column("x", _F, "m", "odometric position x"),
-    Column("y", _F, "m", "odometric position y"),
-    Column("theta", _F, "rad", "odometric heading"),
-    Column("linear", _F, "m/s", "commanded linear velocity"),
-    Column("angular", _F, "rad/s", "commanded angular velocity"),
+    Column(
+        "image_latency_s", _F, "s", "tick time − stamp of the images those flies were scored on"
+    ),
+    Column("odom_latency_s", _F, "s", "tick time − stamp of the newest odometry"),
+    Column("x_m", _F, "m", "odometric position x"),
+    Column("y_m", _F, "m", "odometric position y"),
+    Column("theta_rad", _F, "rad", "odometric heading"),
+    Column("linear_m_s", _F, "m/s", "commanded linear velocity"),
+    Column("angular_rad_s", _F, "rad/s", "commanded angular velocity"),
     Column("status", _S, "", "planner status: driving, goal_reached or stuck"),
     Column("potential_change", _F, "", "largest change of the tick's last SOR sweep"),
 )

@@ -204,9 +204,9 @@ def _curves(
     if steps.is_file():  # a replay's per-step table (a closed-loop log has none)
         import pyarrow.parquet as pq
 
-        table = pq.read_table(steps, columns=["t", "image_latency"]).to_pydict()
-        st = np.array(table["t"], dtype=float)
-        lat = np.array([np.nan if v is None else v for v in table["image_latency"]], dtype=float)
+        table = pq.read_table(steps, columns=["t_s", "image_latency_s"]).to_pydict()
+        st = np.array(table["t_s"], dtype=float)
+        lat = np.array([np.nan if v is None else v for v in table["image_latency_s"]], dtype=float)
         series.append(("image latency (s)", st - t0_s, lat, (0.0, None)))
     panels, ylims, notes = [], [], []
     for label, x, y, ylim in series:
