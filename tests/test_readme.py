@@ -1,12 +1,12 @@
-"""Every command of README.md, run as a new user runs them: block after block, in one
-directory (the checkout's ``fixtures/`` beside them, as from the checkout's root), each with
-the exit code the README gives it (0 unless a ``# exits 1`` or ``# exits 0 or 1`` comment
-says otherwise).
+"""Every command of README.md (and of docs/datasets.md's tour), run as a new user runs
+them: block after block, in one directory a page (the checkout's ``fixtures/`` beside them,
+as from the checkout's root), each with the exit code the page gives it (0 unless a
+``# exits 1`` or ``# exits 0 or 1`` comment says otherwise).
 
 Commands run in this process (click's runner), so the numba kernels load once. Logs are
 shorter than the README's (``FASTER``): the options are the README's, only the amounts
-differ. The dataset the README imports, ``Motorcycle-perfect/``, is the Middlebury 2014
-Motorcycle pair at the quarter size scikit-image ships, written in its layout.
+differ. The dataset the pages import (``Motorcycle-perfect/``, ``Motorcycle/``) is the
+Middlebury 2014 Motorcycle pair at the quarter size scikit-image ships, written in its layout.
 """
 
 from __future__ import annotations
@@ -23,6 +23,8 @@ from flylog.cli.main import cli
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
+# Pages whose commands run, and the dataset folders each one imports.
+PAGES = {README: ("Motorcycle-perfect",), ROOT / "docs" / "datasets.md": ("Motorcycle",)}
 
 # Appended to a command's arguments (click keeps an option's last value): short logs at
 # 160x120, one seed.
@@ -81,21 +83,28 @@ def _motorcycle(folder: Path) -> None:
     write_motorcycle(folder)
 
 
-@pytest.mark.slow
-def test_every_readme_command_runs_as_written(tmp_path: Path, monkeypatch) -> None:
-    pytest.importorskip("skimage")
-    commands = readme_commands(README.read_text(encoding="utf-8"))
-    (tmp_path / "fixtures").symlink_to(ROOT / "fixtures", target_is_directory=True)
-    _motorcycle(tmp_path / "Motorcycle-perfect")
-    monkeypatch.chdir(tmp_path)
+def _run_page(page: Path, here: Path, datasets: tuple[str, ...], monkeypatch) -> None:
+    here.mkdir()
+    (here / "fixtures").symlink_to(ROOT / "fixtures", target_is_directory=True)
+    for folder in datasets:
+        _motorcycle(here / folder)
+    monkeypatch.chdir(here)
     runner = CliRunner()
-    for command in commands:
+    for command in readme_commands(page.read_text(encoding="utf-8")):
         args = [*command.args, *FASTER.get(command.args[0], [])]
         got = runner.invoke(cli, args)
         assert got.exit_code in command.exits, (
-            f"{command} exited {got.exit_code}, the README says {sorted(command.exits)}:\n"
-            f"{got.output[-2000:]}"
+            f"{page.name}: {command} exited {got.exit_code}, the page says "
+            f"{sorted(command.exits)}:\n{got.output[-2000:]}"
         )
+
+
+@pytest.mark.slow
+def test_every_readme_command_runs_as_written(tmp_path: Path, monkeypatch) -> None:
+    pytest.importorskip("skimage")
+    for page, datasets in PAGES.items():
+        _run_page(page, tmp_path / page.stem, datasets, monkeypatch)
+    here = tmp_path / README.stem
     # The outputs the README names where no -o does.
     outputs = (
         "run.metrics.parquet",
@@ -108,4 +117,4 @@ def test_every_readme_command_runs_as_written(tmp_path: Path, monkeypatch) -> No
         "experiments-out/latency/summary.md",
     )
     for made in outputs:
-        assert (tmp_path / made).is_file(), made
+        assert (here / made).is_file(), made

@@ -22,6 +22,10 @@ from flylog.report.html import Page, write_page
 FRAMES = 4
 FRAME_WIDTH_IN = 7.0
 MAP_WIDTH_IN = 13.0
+# The map holds the obstacles this close to the true trajectory (the cameras' useful range)
+# and spans at least this much each way.
+OBSTACLE_REACH_M = 4.0
+MIN_SPAN_M = 4.0
 # Summary columns that identify what was scored rather than score it: in the folded section.
 PROVENANCE = ("log_fingerprint", "run_config", "metrics_config")
 # At most this many obstacle flies on the map (every k-th of all snapshots'): the map
@@ -343,24 +347,28 @@ def _scene_page(
         paths,
         flies=world,
         flies_label=points,
-        extent=_map_extent(truth.scene, true_xyt, odom_xyt),
+        extent=_map_extent(truth.scene, world, true_xyt, odom_xyt),
     )
     page.heading("Map")
     page.figure(
         plots.map_figure(here / "map.png", truth.scene, [panel], rig=rig, width=MAP_WIDTH_IN),
         "Obstacles (hatched: low texture; dashed: sonar-absorbing), the true and odometric "
         f"trajectories, and the {points} of every snapshot placed in the world by the true "
-        "pose at its time; the map spans the trajectories, the start and the goal.",
+        "pose at its time; the map spans the trajectories, the start, the goal, the obstacles "
+        "near the path and the bulk of the points.",
     )
+    # SGBM's cloud carries a texture score in its fitness field (1 + the mean gradient
+    # around the pixel, flylog.baseline.sgbm): named as what it is.
+    score = "texture score" if sgbm else "fitness"
     frames = _frame_panels(log, rig, times, clouds, fitness, points)
     if frames:
         page.heading("Left frames")
         page.figure(
             plots.frames_figure(
-                here / "frames.png", frames, size=FRAME_WIDTH_IN, value_label="fitness"
+                here / "frames.png", frames, size=FRAME_WIDTH_IN, value_label=score
             ),
             f"Left images at snapshots spread over the run, the {points} of the snapshot "
-            "drawn at their projections, coloured by their fitness (one scale for all).",
+            f"drawn at their projections, coloured by their {score} (one scale for all).",
         )
     else:
         page.note("The run holds no fly snapshot: no frame is drawn.")
@@ -369,20 +377,27 @@ def _scene_page(
         curves, ylims, notes = _curves(snapshots, table_path(run), t0_s, points)
         page.heading("Over time")
         if curves:
+            ticks = any(label.startswith("image latency") for label, _ in curves)
             page.figure(
                 plots.curves_figure(here / "curves.png", curves, ylims=ylims),
-                f"Per snapshot: precision and recall of the {points}, their number; per "
-                "planner tick: the age of the images the flies were scored on.",
+                f"Per snapshot: precision and recall of the {points}, their number"
+                + (
+                    "; per planner tick: the age of the images they were scored on."
+                    if ticks
+                    else "."
+                ),
             )
         for note in notes:
             page.note(f"Not drawn, constant or empty: {note}.")
 
 
 def _map_extent(
-    scene: Any, *trajectories: np.ndarray, margin: float = 1.5
+    scene: Any, world_flies: np.ndarray, *trajectories: np.ndarray, margin: float = 1.0
 ) -> tuple[float, float, float, float]:
-    """xmin, xmax, ymin, ymax around the trajectories, the start and the goal (obstacles
-    reaching farther are cut at the frame: a corridor's 16 m walls do not shrink the path)."""
+    """xmin, xmax, ymin, ymax around the trajectories, the start, the goal, the obstacles
+    within OBSTACLE_REACH_M of the true trajectory and the bulk of the flies (2nd to 98th
+    percentile): what the run saw and did, not the whole world (a corridor's walls run on
+    far beyond its path, cut at the frame). At least MIN_SPAN_M a side."""
     start = scene.start_pose
     xs = [start.x, scene.goal[0]] + [
         v for t in trajectories for v in (t[:, 0].min(), t[:, 0].max())
@@ -390,4 +405,16 @@ def _map_extent(
     ys = [start.y, scene.goal[1]] + [
         v for t in trajectories for v in (t[:, 1].min(), t[:, 1].max())
     ]
-    return min(xs) - margin, max(xs) + margin, min(ys) - margin, max(ys) + margin
+    fp = scene.footprints
+    path = trajectories[0][:, :2]
+    for cx, cy, r in zip(fp.cx, fp.cy, fp.bounding_radius(), strict=True):
+        if np.hypot(path[:, 0] - cx, path[:, 1] - cy).min() - r <= OBSTACLE_REACH_M:
+            xs += [min(max(cx, min(xs) - OBSTACLE_REACH_M), max(xs) + OBSTACLE_REACH_M)]
+            ys += [min(max(cy, min(ys) - OBSTACLE_REACH_M), max(ys) + OBSTACLE_REACH_M)]
+    if len(world_flies):
+        lo, hi = np.percentile(world_flies, [2, 98], axis=0)
+        xs += [float(lo[0]), float(hi[0])]
+        ys += [float(lo[1]), float(hi[1])]
+    x0, x1, y0, y1 = min(xs) - margin, max(xs) + margin, min(ys) - margin, max(ys) + margin
+    grow_x, grow_y = max(0.0, MIN_SPAN_M - (x1 - x0)) / 2, max(0.0, MIN_SPAN_M - (y1 - y0)) / 2
+    return x0 - grow_x, x1 + grow_x, y0 - grow_y, y1 + grow_y
