@@ -49,12 +49,19 @@ def varying_metrics(
     """The metrics worth a plot (they vary over the ok cells), and a note for each other one:
     a metric with one value in every cell (a replay's clearance is its log's) or none."""
     shown, notes = [], []
+    inputs = list(dict.fromkeys(str(r["input"]) for r in rows))
     for metric, label in metrics:
         values = _finite(rows, metric)
+        each = {i: _finite([r for r in rows if str(r["input"]) == i], metric) for i in inputs}
         if not values:
             notes.append(f"{label}: no value in any cell")
         elif max(values) == min(values):
             notes.append(f"{label}: {values[0]:.4g} in every cell")
+        elif all(not v or max(v) == min(v) for v in each.values()):
+            # a replay's path, clearance and drift are its log's: the same in every cell of
+            # an input, whatever the configuration
+            per = ", ".join(f"{Path(i).name} {v[0]:.4g}" for i, v in each.items() if v)
+            notes.append(f"{label}: the input's own, the same in each of its cells ({per})")
         else:
             shown.append((metric, label))
     return shown, notes
@@ -144,7 +151,7 @@ def sweep_report(directory: Path, output: Path) -> Path:
     if not keys:
         page.note("The sweep has no grid: no plot against a grid key.")
     for note in constant:
-        page.note(f"Not drawn, the same in every cell: {note}.")
+        page.note(f"Not drawn, no configuration changes it: {note}.")
     page.heading("Results")
     # Columns with a value in some cell (no column of "—" only; "error" when a cell failed).
     metrics = [m for m in _TABLE_METRICS if any(r.get(m) is not None for r in rows)]
