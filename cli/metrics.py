@@ -152,6 +152,9 @@ def metrics(
         result = score_run(run, log if log is not None else run, config, on_progress=update)
     paths = write_metrics(result, output)
     shown = _SHOWN if result.summary.get("truth_images") is None else _IMAGE_SHOWN
+    # Rows with a value for this run only: a replay has no time to goal, a fly run on a
+    # dataset no SGBM dense map.
     rows = [[label, _fmt(result.summary[key]), unit] for key, label, unit in shown]
+    rows = [row for row in rows if row[1] != "—"]
     print_fitted(stdout, f"metrics of {run}", ["metric", "value", "unit"], rows, right=[1])
     stdout.print("wrote " + ", ".join(str(p) for p in paths))

@@ -63,6 +63,9 @@ def test_the_metrics_outputs_are_shown_as_they_are(run: Path, tmp_path: Path) ->
         cli, ["metrics", str(run), "--log", str(LOG), "-o", str(metrics), "--tau", "0.01"]
     )
     assert scored.exit_code == 0, scored.output
+    # the printed table: no row without a value (a replay has no time to goal), 80 columns
+    assert "time to goal" not in scored.output and "—" not in scored.output
+    assert max(len(line) for line in scored.output.splitlines()) <= 80
     precision = read_summary(metrics)["precision"]
     assert score_run(run, LOG).summary["precision"] != precision  # tau matters here
     page = tmp_path / "report.html"
