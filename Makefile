@@ -3,16 +3,26 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
+DEMO_STAMP := $(VENV)/.installed-package
 DEMO_DIR := demo-out
 
 .PHONY: demo test lint bench fuzz fixtures experiments docs clean bytecode confidence
 
+# `make test`'s environment: flylog and its test extras (pytest, ruff, mypy, Ray, ...).
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[test]'
 	$(MAKE) bytecode
-	touch $(STAMP)
+	touch $(STAMP) $(DEMO_STAMP)
+
+# `make demo`'s: flylog alone (its test extras, Ray above all, are most of the first's size).
+$(DEMO_STAMP): pyproject.toml
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e .
+	$(MAKE) bytecode
+	touch $(DEMO_STAMP)
 
 # pip byte-compiles what it installs, but not an editable install's sources: with
 # PYTHONDONTWRITEBYTECODE set (as in many containers) every command would compile flylog's
@@ -21,7 +31,7 @@ $(STAMP): pyproject.toml
 bytecode:
 	$(BIN)/python -m compileall -q flylog cli
 
-demo: $(STAMP)
+demo: $(DEMO_STAMP)
 	$(BIN)/python -m flylog.cli.demo $(DEMO_DIR)
 
 lint: $(STAMP)

@@ -10,7 +10,7 @@ import sys
 import threading
 import warnings
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from pathlib import Path
 from typing import Any, NoReturn, TypeVar
 
@@ -211,25 +211,36 @@ def _error(message: str, code: int) -> NoReturn:
 
 @contextmanager
 def progress_bar(
-    description: str, unit: str, console: Console = stderr
+    description: str, unit: str, console: Console = stderr, *, kernels: bool = False
 ) -> Iterator[Callable[[float, float], None]]:
     """A rich progress bar with ETA on ``console``; yields ``update(done, total)`` in ``unit``
     (e.g. "frames", "s" of log time). Nothing drawn when the console is not a terminal.
-    Each update first raises a stop signal's exception that was dropped (raise_if_stopped)."""
-    if not console.is_terminal:  # no bar: rich.progress is not even imported (~10 ms)
+    Each update first raises a stop signal's exception that was dropped (raise_if_stopped).
+    ``kernels``: the block calls numba kernels; their first compilation on this machine
+    prints a line, and the bar counts them (flylog.cli.compiling)."""
+    with ExitStack() as stack:
+        if not console.is_terminal:  # no bar: rich.progress is not even imported (~10 ms)
+            if kernels:
+                from flylog.cli.compiling import compiles_shown
 
-        def checked(done: float, total: float) -> None:
-            raise_if_stopped()
+                stack.enter_context(compiles_shown(console))
 
-        yield checked
-        return
-    from flylog.cli.progress import drawn_progress_bar
+            def checked(done: float, total: float) -> None:
+                raise_if_stopped()
 
-    with drawn_progress_bar(description, unit, console) as update:
+            yield checked
+            return
+        from flylog.cli.progress import drawn_progress_bar
+
+        bar = stack.enter_context(drawn_progress_bar(description, unit, console))
+        if kernels:
+            from flylog.cli.compiling import compiles_shown
+
+            stack.enter_context(compiles_shown(console, bar.note))
 
         def checked_update(done: float, total: float) -> None:
             raise_if_stopped()
-            update(done, total)
+            bar(done, total)
 
         yield checked_update
 

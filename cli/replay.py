@@ -187,7 +187,7 @@ def replay(
         BagOptions(),
         {"topics": topics or None, "pair_tolerance": pair_tolerance, "sonar_window": sonar_window},
     )
-    with progress_bar(f"replay {log.name}", unit="s") as update:
+    with progress_bar(f"replay {log.name}", unit="s", kernels=True) as update:
         summary = run_replay(
             log,
             output,

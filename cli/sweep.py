@@ -146,8 +146,7 @@ def sweep(
     """Run the sweep SPEC (TOML: inputs × seeds × a grid of configuration keys × variants;
     see docs/sweep.md): each cell replays its log (or runs the closed loop) and scores it.
     Exit code 1 if any cell failed (the others still ran), 2 on a bad SPEC."""
-    from rich.table import Table
-
+    from flylog.cli.tables import print_fitted
     from flylog.sweep.executors import Backend
     from flylog.sweep.limits import SweepLimits
     from flylog.sweep.runner import SweepOptions, run_sweep
@@ -176,16 +175,20 @@ def sweep(
         )
         sys.exit(EXIT_INTERRUPTED if signum == signal.SIGINT else 128 + signum)
     keys = result.spec.grid_keys
-    table = Table(title=f"sweep {spec.name}: mean ± sd per grid point", title_justify="left")
-    for name in ("variant", *keys, "cells ok", "failed"):
-        table.add_column(name)
-    for _, label in MAIN_METRICS:
-        table.add_column(label, justify="right")
-    for point in summarize(result.rows, keys):
-        values = [str(v) for _, v in point.key]
-        stats = [_pm(*point.metrics[m], point.ok) for m, _ in MAIN_METRICS]
-        table.add_row(*values, str(point.ok), str(point.failed), *stats)
-    stdout.print(table)
+    header = ["variant", *keys, "cells ok", "failed", *(label for _, label in MAIN_METRICS)]
+    rows = [
+        [*(str(v) for _, v in point.key), str(point.ok), str(point.failed)]
+        + [_pm(*point.metrics[m], point.ok) for m, _ in MAIN_METRICS]
+        for point in summarize(result.rows, keys)
+    ]
+    print_fitted(
+        stdout,
+        f"sweep {spec.name}: mean ± sd per grid point",
+        header,
+        rows,
+        right=range(1 + len(keys), len(header)),
+        key_columns=1 + len(keys),
+    )
     stdout.print(
         f"{result.results}: {len(result.rows)} cells ({result.ran} run, {result.reused} "
         f"already done) in {result.wall_seconds:.1f} s",

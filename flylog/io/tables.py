@@ -19,6 +19,7 @@ from types import TracebackType
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 from flylog.io.atomic import Batch, publish, temporary_beside
+from flylog.io.inputs import input_path
 
 if TYPE_CHECKING:
     import pyarrow as pa
@@ -174,3 +175,42 @@ class TableWriter:
                 self._writer.close()
             if self._tmp is not None:
                 self._tmp.unlink(missing_ok=True)
+
+
+class ColumnInfo(NamedTuple):
+    """A column of a Parquet file as ``flylog describe`` shows it."""
+
+    name: str
+    type: str
+    unit: str
+    description: str
+
+
+def describe_table(path: str | os.PathLike[str]) -> tuple[int, list[ColumnInfo]]:
+    """The row count and columns of the Parquet file ``path``, each with its unit and
+    description from the file's ``flylog.columns`` key-value metadata (else the field's own
+    metadata; empty for a table flylog did not write). LogError if it is not Parquet."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from flylog.errors import LogError
+
+    try:
+        meta = pq.ParquetFile(input_path(path, "the table")).metadata
+        arrow = pq.read_schema(input_path(path, "the table"))
+    except (pa.ArrowInvalid, OSError) as exc:
+        msg = f"{path}: not a readable Parquet file ({exc})"
+        raise LogError(msg) from None
+    kv = arrow.metadata or {}
+    try:
+        documented = json.loads(kv.get(COLUMNS_METADATA_KEY.encode(), b"{}"))
+    except (json.JSONDecodeError, UnicodeDecodeError):
+        documented = {}
+    out = []
+    for field in arrow:
+        own = {k.decode(): v.decode() for k, v in (field.metadata or {}).items()}
+        doc = documented.get(field.name, own) if isinstance(documented, dict) else own
+        out.append(
+            ColumnInfo(field.name, str(field.type), doc.get("unit", ""), doc.get("description", ""))
+        )
+    return meta.num_rows, out

@@ -47,13 +47,14 @@ MAX_WRITE_LAG_NS = 1_000_000_000
 class LogConfig:
     """How logs are written."""
 
-    # lz4 keeps the simulator above 30 stereo pairs/s even on one core: on its 640×480
-    # frames (tests/benchmarks/bench_simulate.py) simulate runs at ~34 pairs/s single-threaded
-    # with lz4 (logs 0.35–0.40 of raw), ~29 with zstd level 3, mcap's (0.21–0.24 of raw,
-    # ~4–5 ms more a pair); reading back is about as fast for both (~300 pairs/s).
+    # zstd: a sensor log is kept and replayed many times, written once. The corridor at
+    # 640×480, 6 s (tests/benchmarks/bench_compression.py, docs/performance.md): 160 MiB raw,
+    # 79 MiB with lz4, 43 MiB with zstd (level 3, mcap's); writing costs 1.15 s of CPU with
+    # zstd against 0.63 s with lz4 (~6 ms more a stereo pair, simulate's ~30 pairs/s on one
+    # core become ~25), reading 0.31 s against 0.18 s, 0.5 % of the log's replay.
     compression: Compression = param(
-        Compression.LZ4,
-        help="chunk compression: lz4 (fast), zstd (~40 % smaller, ~2× the CPU) or none",
+        Compression.ZSTD,
+        help="chunk compression: zstd (0.55× lz4's size), lz4 (1.8× less CPU to write) or none",
     )
     chunk_size: int = param(
         4 * 1024 * 1024,

@@ -142,9 +142,9 @@ def _snapshot_row(t_ns: int, t0_ns: int, pose: np.ndarray, score: Any) -> dict[s
     return {
         "stamp_ns": int(t_ns),
         "t_s": (t_ns - t0_ns) / 1e9,
-        "true_x": float(pose[0]),
-        "true_y": float(pose[1]),
-        "true_theta": float(pose[2]),
+        "true_x_m": float(pose[0]),
+        "true_y_m": float(pose[1]),
+        "true_theta_rad": float(pose[2]),
         "flies": score.flies,
         "obstacle_flies": score.obstacle_flies,
         "in_view": score.in_view,
@@ -317,7 +317,7 @@ def _scored(
     if pending:
         score_pending()
 
-    xy = np.array([[r["true_x"], r["true_y"]] for r in rows]).reshape(-1, 2)
+    xy = np.array([[r["true_x_m"], r["true_y_m"]] for r in rows]).reshape(-1, 2)
     for row, nearest in zip(rows, distance_to_obstacles(truth.scene, xy), strict=True):
         row["nearest_true_m"] = float(nearest)
     t_s = np.array([r["t_s"] for r in rows])
@@ -335,7 +335,7 @@ def _scored(
             "first_visible_s": float(det.first_visible[k]),
             "first_detected_s": float(det.first_detected[k]),
             "latency_s": float(det.latency[k]),
-            "max_visible_pixels": int(det.max_visible_pixels[k]),
+            "max_visible_px": int(det.max_visible_pixels[k]),
             "max_flies_on": int(det.max_flies_on[k]),
         }
         for k, ob in enumerate(truth.scene.obstacles)

@@ -33,9 +33,9 @@ _F, _I, _B, _S = pa.float64(), pa.int64(), pa.bool_(), pa.string()
 SNAPSHOT_COLUMNS = (
     Column("stamp_ns", _I, "ns", "log time of the /flies snapshot"),
     Column("t_s", _F, "s", "time since the first true pose"),
-    Column("true_x", _F, "m", "true position x at the snapshot (interpolated)"),
-    Column("true_y", _F, "m", "true position y"),
-    Column("true_theta", _F, "rad", "true heading"),
+    Column("true_x_m", _F, "m", "true position x at the snapshot (interpolated)"),
+    Column("true_y_m", _F, "m", "true position y"),
+    Column("true_theta_rad", _F, "rad", "true heading"),
     Column("flies", _I, "", "flies in the snapshot"),
     Column("obstacle_flies", _I, "", "flies taken for obstacles (the run's rule)"),
     Column("in_view", _I, "", "obstacle flies projecting inside the left image"),
@@ -125,7 +125,7 @@ OBSTACLE_COLUMNS = (
     Column("first_visible_s", _F, "s", "first snapshot with min_visible_pixels on it"),
     Column("first_detected_s", _F, "s", "first snapshot since with min_detecting_flies on it"),
     Column("latency_s", _F, "s", "first_detected_s - first_visible_s"),
-    Column("max_visible_pixels", _I, "px", "most pixels of the view it ever covered"),
+    Column("max_visible_px", _I, "px", "most pixels of the view it ever covered"),
     Column("max_flies_on", _I, "", "most obstacle flies ever on it"),
 )
 
@@ -155,6 +155,13 @@ def check_output_name(path: Path) -> None:
     if Path(path).suffix != ".parquet":
         msg = f"{path}: the metrics output must end in .parquet"
         raise OutputError(msg, parameter="output")
+
+
+def default_output(run: Path) -> Path:
+    """Where ``flylog metrics RUN`` writes without ``-o``: beside the run, ``NAME.metrics.parquet``
+    for ``NAME.mcap`` (``NAME.parquet`` is the replay's own step table)."""
+    run = Path(run)
+    return run.with_name(run.stem + ".metrics.parquet")
 
 
 def summary_path(path: Path) -> Path:

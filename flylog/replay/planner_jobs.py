@@ -121,22 +121,22 @@ class PlannerJobs:
             return Outputs(messages, command)
         valid = pop.fitness[pop.fitness > 0] if pop is not None else np.empty(0)
         row = {
-            "t": t_ns / 1e9,
+            "t_s": t_ns / 1e9,
             "generation": seen.generation,
             "evaluations": tick.evaluations,
             "valid_flies": len(valid),
             "obstacle_flies": len(obstacles),
             "best_fitness": float(valid.max()) if len(valid) else math.nan,
             "median_fitness": float(np.median(valid)) if len(valid) else math.nan,
-            "image_latency": (t_ns - seen.image_stamp_ns) / 1e9
+            "image_latency_s": (t_ns - seen.image_stamp_ns) / 1e9
             if seen.image_stamp_ns >= 0
             else math.nan,
-            "odom_latency": (t_ns - tick.odom.stamp_ns) / 1e9,
-            "x": pose.x,
-            "y": pose.y,
-            "theta": pose.theta,
-            "linear": command.linear,
-            "angular": command.angular,
+            "odom_latency_s": (t_ns - tick.odom.stamp_ns) / 1e9,
+            "x_m": pose.x,
+            "y_m": pose.y,
+            "theta_rad": pose.theta,
+            "linear_m_s": command.linear,
+            "angular_rad_s": command.angular,
             "status": status.value,
             "potential_change": change,
         }
