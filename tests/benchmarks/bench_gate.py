@@ -1,0 +1,203 @@
+"""The gate itself (``flylog compare`` of two sweeps): its false alarms over A/A comparisons,
+its power on three real regressions, and its run time per comparison.
+
+Each configuration runs once over a pool of engine seeds (``gate_pools``: short logs of
+``corridor`` and ``near-obstacle``, 2 s at 320×240); every comparison draws its 5 seeds a
+side from those pools at random (a seeded generator), so the comparisons share runs: that
+is how 100 comparisons of 10 runs fit in ~260 runs. Figures:
+
+- false alarms: A/A comparisons, the default configuration against itself on disjoint
+  seeds (unpaired), the share that exits 1; on the held-out seeds 20-39 and, apart, on the
+  seeds 0-19 the default tolerances were set from;
+- power: the share of comparisons that exit 1 when the candidate is a regression, with the
+  candidate on the same 5 seeds as the base (paired, as a CI job runs them) and on 5 other
+  seeds (unpaired); held-out seeds only;
+- each regression's true effect: the difference of the means over its 20 seeds;
+- the gate's time per comparison: reading both results tables, the test of every metric of
+  every grid point and input, the JSON and the JUnit XML, in this process; and a fresh
+  ``flylog compare`` process with ``--junit`` and ``--json`` files, start to exit.
+"""
+
+from __future__ import annotations
+
+import statistics
+import subprocess
+import sys
+import time
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from flylog.metrics.compare import DEFAULT_TOLERANCES
+from flylog.metrics.gate import comparison_json, junit_xml
+from flylog.sweep.compare import compare_results
+from flylog.sweep.results import read_results, write_results
+
+from .gate_pools import HELD_OUT_SEEDS, POOLS, TUNING_SEEDS, run_pool
+
+SEEDS_A_SIDE = 5
+COMPARISONS = 120
+# The metrics whose true effect is reported (the judged ones the regressions move).
+EFFECT_METRICS = ("precision", "recall", "f_score", "nearest_error_m", "obstacles_detected")
+
+
+def _write(path: Path, rows: Sequence[Mapping[str, Any]], source: Path) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_results(path, (), list(rows), source)
+    return path
+
+
+def _pick(rows: list[dict], seeds: Sequence[int], inputs: set[str]) -> list[dict]:
+    chosen = set(seeds)
+    return [r for r in rows if r["seed"] in chosen and r["input"] in inputs]
+
+
+class Gate:
+    """Comparisons of seed subsets of the pools, timed."""
+
+    def __init__(self, out_dir: Path) -> None:
+        self.dir = out_dir / "comparisons"
+        self.times: list[float] = []
+        self.count = 0
+
+    def exits_1(self, base: list[dict], candidate: list[dict], source: Path) -> bool:
+        self.count += 1
+        b = _write(self.dir / f"{self.count}-base" / "results.parquet", base, source)
+        c = _write(self.dir / f"{self.count}-cand" / "results.parquet", candidate, source)
+        t0 = time.perf_counter()
+        result = compare_results(b, c, DEFAULT_TOLERANCES)
+        comparison_json(result.groups, DEFAULT_TOLERANCES)
+        junit_xml(result.groups, DEFAULT_TOLERANCES)
+        self.times.append(time.perf_counter() - t0)
+        for path in (b, c):
+            path.unlink()
+            path.parent.rmdir()
+        return any(g.comparison.regressed for g in result.groups)
+
+
+def _aa(gate: Gate, rows: list[dict], seeds: Sequence[int], rng, source: Path) -> float:
+    inputs = {r["input"] for r in rows}
+    hits = 0
+    for _ in range(COMPARISONS):
+        drawn = rng.choice(seeds, size=2 * SEEDS_A_SIDE, replace=False)
+        a, b = drawn[:SEEDS_A_SIDE], drawn[SEEDS_A_SIDE:]
+        hits += gate.exits_1(_pick(rows, a, inputs), _pick(rows, b, inputs), source)
+    return hits / COMPARISONS
+
+
+def _power(
+    gate: Gate, base: list[dict], cand: list[dict], rng, source: Path, *, paired: bool
+) -> float:
+    inputs = {r["input"] for r in cand}
+    seeds = list(HELD_OUT_SEEDS)
+    hits = 0
+    for _ in range(COMPARISONS):
+        drawn = rng.choice(seeds, size=2 * SEEDS_A_SIDE, replace=False)
+        a = drawn[:SEEDS_A_SIDE]
+        b = a if paired else drawn[SEEDS_A_SIDE:]
+        hits += gate.exits_1(_pick(base, a, inputs), _pick(cand, b, inputs), source)
+    return hits / COMPARISONS
+
+
+def _effects(base: list[dict], cand: list[dict]) -> list[str]:
+    """Per input, the difference of the means over the held-out seeds, in base sds."""
+    out = []
+    for inp in sorted({r["input"] for r in cand}):
+        parts = []
+        for m in EFFECT_METRICS:
+            b = np.array([r[m] for r in _pick(base, HELD_OUT_SEEDS, {inp})], dtype=float)
+            c = np.array([r[m] for r in _pick(cand, HELD_OUT_SEEDS, {inp})], dtype=float)
+            sd = float(np.nanstd(b, ddof=1))
+            effect = float(np.nanmean(c) - np.nanmean(b))
+            in_sd = f" ({effect / sd:+.1f} sd)" if sd > 0 else ""
+            parts.append(f"{m} {effect:+.3g}{in_sd}")
+        out.append(f"{Path(inp.split('@')[0]).stem}: " + ", ".join(parts))
+    return out
+
+
+def _cli_seconds(out_dir: Path, base: list[dict], cand: list[dict], source: Path) -> float:
+    """A fresh ``flylog compare`` process with --junit and --json files, best of 3."""
+    b = _write(out_dir / "cli" / "base" / "results.parquet", base, source)
+    c = _write(out_dir / "cli" / "cand" / "results.parquet", cand, source)
+    exe = Path(sys.executable).parent / "flylog"
+    best = float("inf")
+    for _ in range(3):
+        t0 = time.perf_counter()
+        files = ["--junit", str(out_dir / "cli" / "gate.xml")]
+        files += ["--json", str(out_dir / "cli" / "gate.json")]
+        subprocess.run(
+            [str(exe), "compare", str(b), str(c), *files], check=False, capture_output=True
+        )
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def run(out_dir: Path) -> list[dict]:
+    root = out_dir / "gate"
+    t0 = time.perf_counter()
+    pools = {name: run_pool(name, root) for name in POOLS}
+    pool_s = time.perf_counter() - t0
+    cells = sum(len(p.rows) for p in pools.values())
+    source = pools["base"].spec.source
+    rows = {name: read_results(p.results)[1] for name, p in pools.items()}
+    rng = np.random.default_rng(34)
+    gate = Gate(root)
+    figures: list[dict] = []
+    held = _aa(gate, rows["base"], list(HELD_OUT_SEEDS), rng, source)
+    tuned = _aa(gate, rows["base"], list(TUNING_SEEDS), rng, source)
+    note = f"{COMPARISONS} comparisons, {SEEDS_A_SIDE} disjoint seeds a side, 2 inputs"
+    for seeds, share in (("held-out seeds 20-39", held), ("tuning seeds 0-19", tuned)):
+        figures.append(
+            {"name": f"false alarms, A/A, {seeds}", "value": 100 * share, "unit": "%", "note": note}
+        )
+    for name in POOLS:
+        if name == "base":
+            continue
+        for paired in (True, False):
+            power = _power(gate, rows["base"], rows[name], rng, source, paired=paired)
+            how = "same seeds, paired" if paired else "disjoint seeds, unpaired"
+            figures.append(
+                {
+                    "name": f"power, {name} ({how})",
+                    "value": 100 * power,
+                    "unit": "%",
+                    "note": f"{COMPARISONS} comparisons, held-out seeds; true effect over 20 "
+                    "seeds: " + "; ".join(_effects(rows["base"], rows[name])),
+                }
+            )
+    t = sorted(gate.times)
+    figures.append(
+        {
+            "name": "gate time per comparison (in process)",
+            "value": 1000 * statistics.median(t),
+            "unit": "ms",
+            "note": f"median of {len(t)}; 90th percentile {1000 * t[int(0.9 * len(t))]:.0f} ms; "
+            "2 inputs × 5 seeds a side, reading, tests, JSON and JUnit",
+        }
+    )
+    inputs = {r["input"] for r in rows["base"]}
+    cli = _cli_seconds(
+        root,
+        _pick(rows["base"], HELD_OUT_SEEDS[:5], inputs),
+        _pick(rows["base"], HELD_OUT_SEEDS[5:10], inputs),
+        source,
+    )
+    figures.append(
+        {
+            "name": "flylog compare process, start to exit",
+            "value": cli,
+            "unit": "s",
+            "note": "best of 3, --junit and --json files, 2 inputs × 5 seeds a side",
+        }
+    )
+    figures.append(
+        {
+            "name": "seed pools (sweeps, reused when already run)",
+            "value": pool_s,
+            "unit": "s",
+            "note": f"{cells} cells on 2 workers",
+        }
+    )
+    return figures
