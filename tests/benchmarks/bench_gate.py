@@ -32,6 +32,7 @@ import numpy as np
 
 from flylog.metrics.compare import DEFAULT_TOLERANCES
 from flylog.metrics.gate import comparison_json, junit_xml
+from flylog.metrics.judge import Verdict
 from flylog.sweep.compare import compare_results
 from flylog.sweep.results import read_results, write_results
 
@@ -61,6 +62,8 @@ class Gate:
         self.dir = out_dir / "comparisons"
         self.times: list[float] = []
         self.count = 0
+        self.inconclusive: list[int] = []  # inconclusive metrics per comparison
+        self.tested: list[int] = []  # metrics tested (judged) per comparison
 
     def exits_1(self, base: list[dict], candidate: list[dict], source: Path) -> bool:
         self.count += 1
@@ -71,6 +74,9 @@ class Gate:
         comparison_json(result.groups, DEFAULT_TOLERANCES)
         junit_xml(result.groups, DEFAULT_TOLERANCES)
         self.times.append(time.perf_counter() - t0)
+        metrics = [m for g in result.groups for m in g.comparison.metrics]
+        self.inconclusive.append(sum(m.verdict is Verdict.INCONCLUSIVE for m in metrics))
+        self.tested.append(sum(m.judgement.shift is not None for m in metrics))
         for path in (b, c):
             path.unlink()
             path.parent.rmdir()
@@ -146,12 +152,22 @@ def run(out_dir: Path) -> list[dict]:
     gate = Gate(root)
     figures: list[dict] = []
     held = _aa(gate, rows["base"], list(HELD_OUT_SEEDS), rng, source)
+    aa_inconclusive, aa_tested = list(gate.inconclusive), list(gate.tested)
     tuned = _aa(gate, rows["base"], list(TUNING_SEEDS), rng, source)
     note = f"{COMPARISONS} comparisons, {SEEDS_A_SIDE} disjoint seeds a side, 2 inputs"
     for seeds, share in (("held-out seeds 20-39", held), ("tuning seeds 0-19", tuned)):
         figures.append(
             {"name": f"false alarms, A/A, {seeds}", "value": 100 * share, "unit": "%", "note": note}
         )
+    figures.append(
+        {
+            "name": "A/A inconclusive metrics per comparison, held-out seeds",
+            "value": statistics.mean(aa_inconclusive),
+            "unit": "",
+            "note": f"of {statistics.mean(aa_tested):.0f} tested; comparisons with none: "
+            f"{100 * sum(n == 0 for n in aa_inconclusive) / len(aa_inconclusive):.0f} %",
+        }
+    )
     for name in POOLS:
         if name == "base":
             continue
