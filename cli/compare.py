@@ -27,9 +27,8 @@ def _g(x: float, digits: int = 3) -> str:
     """A number in at most about digits + 5 characters (2.2e-5, not 2.2e-05)."""
     if not math.isfinite(x):
         return "—"
-    text = (
-        f"{x:.{digits - 1}e}" if x != 0 and not 1e-3 <= abs(x) < 10**digits else f"{x:.{digits}g}"
-    )
+    tiny_or_huge = x != 0 and not 1e-3 <= abs(x) < 10**digits
+    text = f"{x:.{digits - 1}e}" if tiny_or_huge else f"{x:.{digits}g}"
     mantissa, e, exponent = text.partition("e")
     if not e:
         return text
@@ -148,9 +147,8 @@ def compare(
         tolerances = load_tolerances(tolerance_file, base=tolerances)
     for spec in tolerance_specs:
         tolerances = override_tolerance(tolerances, spec)
-    if json_file is not None and json_file != Path(STDOUT) and json_file in (*bases, *candidates):
-        msg = f"--json {json_file}: that is an input; give another file"
-        raise click.BadParameter(msg, param_hint="--json")
+    if json_file is not None and json_file != Path(STDOUT):
+        _not_an_input(json_file, (*bases, *candidates))
     groups = _groups(bases, candidates, tolerances, alpha)
     if junit_file is not None:
         write_junit(junit_file, groups, tolerances)
@@ -174,6 +172,16 @@ def compare(
             stdout.print(f"  {name}")
         sys.exit(EXIT_REGRESSION)
     stdout.print("[green]no regression[/]")
+
+
+def _not_an_input(output: Path, inputs: tuple[Path, ...]) -> None:
+    """Refuse an output file that would overwrite one of the inputs (or a sweep's table)."""
+    from flylog.sweep.results import results_path
+
+    read = {p.resolve() for p in inputs} | {results_path(p).resolve() for p in inputs}
+    if output.resolve() in read:
+        msg = f"--json {output}: that is an input; give another file"
+        raise click.BadParameter(msg, param_hint="--json")
 
 
 def _groups(

@@ -16,13 +16,15 @@ boolean metrics) make the counts, and so the tests, conservative.
 
 The null distributions are counted exactly (float64 counts: exact up to 2⁵³, relative error
 1e-16 beyond): the signed-rank one by subset sums of the ranks 1 … n, the U one by the
-recurrence N(m, n, u) = N(m − 1, n, u − n) + N(m, n − 1, u) (Mann & Whitney, 1947).
+recurrence N(m, n, u) = N(m − 1, n, u − n) + N(m, n − 1, u) (Mann & Whitney, 1947), up to
+m·n = 10,000 (the normal approximation beyond).
 """
 
 from __future__ import annotations
 
 import functools
 import math
+from statistics import NormalDist
 from typing import NamedTuple
 
 import numpy as np
@@ -43,10 +45,17 @@ def signed_rank_cdf(n: int) -> np.ndarray:
     return cdf
 
 
+# Above this m·n the U distribution is its normal approximation (with a continuity
+# correction): the exact count's work grows as (mn)², 0.1 s at 100 × 100.
+EXACT_U_LIMIT = 10_000
+
+
 @functools.lru_cache(maxsize=64)
 def mann_whitney_cdf(m: int, n: int) -> np.ndarray:
     """P(U ≤ u) for u = 0 … mn, U the Mann–Whitney statistic of samples of m and n values
     under the null (every one of the C(m+n, m) orders equally likely)."""
+    if m * n > EXACT_U_LIMIT:
+        return normal_u_cdf(m, n)
     # row[j] holds the counts N(i, j, ·) for the current i; N(0, j) = N(i, 0) = [1].
     row = [np.ones(1) for _ in range(n + 1)]
     for i in range(1, m + 1):
@@ -60,6 +69,12 @@ def mann_whitney_cdf(m: int, n: int) -> np.ndarray:
     counts = row[n]
     cdf: np.ndarray = np.cumsum(counts) / counts.sum()
     return cdf
+
+
+def normal_u_cdf(m: int, n: int) -> np.ndarray:
+    """The normal approximation of :func:`mann_whitney_cdf` (continuity-corrected)."""
+    normal = NormalDist(m * n / 2.0, math.sqrt(m * n * (m + n + 1) / 12.0))
+    return np.array([normal.cdf(u + 0.5) for u in range(m * n + 1)])
 
 
 class Shift(NamedTuple):

@@ -8,7 +8,8 @@ resumable in ``bench-out/gate/``.
 - three real regressions, engine seeds 20-39 (the held-out seeds): ``flies1500``
   (``engine.flies`` 5000 → 1500), ``immigrants0`` (``engine.immigration_fraction`` 0),
   ``nosonar`` (sonar fitness and sonar immigration off; ``near-obstacle`` only, the scene
-  whose near post lies in a sonar cone).
+  whose near post lies in a sonar cone); and a milder one, ``flies3500`` (5000 → 3500),
+  to show what the gate makes of a change near the tolerances.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ RESOLUTION = (320, 240)
 POOLS: dict[str, tuple[str, tuple[str, ...], tuple[int, ...]]] = {
     "base": ("", ("corridor", "near-obstacle"), TUNING_SEEDS + HELD_OUT_SEEDS),
     "flies1500": ("[engine]\nflies = 1500\n", ("corridor", "near-obstacle"), HELD_OUT_SEEDS),
+    "flies3500": ("[engine]\nflies = 3500\n", ("corridor", "near-obstacle"), HELD_OUT_SEEDS),
     "immigrants0": (
         "[engine]\nimmigration_fraction = 0.0\n",
         ("corridor", "near-obstacle"),

@@ -14,6 +14,7 @@ from flylog.metrics.shift import (
     mann_whitney_cdf,
     min_pairs,
     min_per_side,
+    normal_u_cdf,
     paired_shift,
     signed_rank_cdf,
     unpaired_shift,
@@ -137,3 +138,12 @@ def test_equal_runs_pair_to_a_zero_shift() -> None:
     assert (shift.low, shift.estimate, shift.high) == (0.0, 0.0, 0.0)
     assert shift.p_at_most(0.0) == 1 / 32 and shift.p_at_least(0.0) == 1 / 32
     assert shift.p_above(0.0) == 1.0
+
+
+def test_large_samples_use_the_normal_approximation_of_u() -> None:
+    exact = mann_whitney_cdf(100, 100)  # the largest counted exactly
+    approx = normal_u_cdf(100, 100)
+    # in the tails, where the intervals' ends are read
+    k = int(np.searchsorted(exact, 0.05, side="right"))
+    assert abs(approx[k] - exact[k]) < 0.001
+    assert np.array_equal(mann_whitney_cdf(100, 101), normal_u_cdf(100, 101))
