@@ -97,17 +97,18 @@ def seeds_needed(shift: Shift, sd: float, tol: float, alpha: float, worse: float
     """Seeds a side (pairs, when paired) whose interval would leave out the tolerance
     bounds it now holds: z₁₋α · sd · √(c/n) below the estimate's distance to them (c = 1
     paired, 2 unpaired), and at least the fewest with a finite interval. ``worse``: +1 if
-    a higher shift is worse, −1 if lower. None if no number of seeds settles it (the
-    estimate on a bound, or no spread measured)."""
+    a higher shift is worse, −1 if lower. Without a spread (too few runs to measure one)
+    that fewest; None if no number of seeds settles it (the estimate on a bound)."""
     est = worse * shift.estimate
     lo, hi = sorted((worse * shift.low, worse * shift.high))
     inside = [b for b in (-tol, tol) if lo <= b <= hi] or [-tol, tol]
     margin = min(abs(est - b) for b in inside)
     floor = min_pairs(alpha) if shift.paired else min_per_side(alpha)
-    if not math.isfinite(sd) or not math.isfinite(est):
+    have = min(shift.n_base, shift.n_candidate)
+    if not math.isfinite(est):
         return None
-    if sd == 0.0:
-        return floor if floor > min(shift.n_base, shift.n_candidate) else None
+    if not math.isfinite(sd) or sd == 0.0:
+        return floor if floor > have else None
     if margin == 0.0:
         return None
     z = NormalDist().inv_cdf(1.0 - alpha)
@@ -159,10 +160,16 @@ def judge(
 
 def _inconclusive_reason(shift: Shift, tol: float, worse: float, need: int | None) -> str:
     lo, hi = sorted((worse * shift.low, worse * shift.high))
-    unit = "pairs" if shift.paired else "seeds a side"
     have = shift.n_base if shift.paired else min(shift.n_base, shift.n_candidate)
+    if shift.paired:
+        unit = "pair" if have == 1 else "pairs"
+    else:
+        unit = "seed a side" if have == 1 else "seeds a side"
+    units = "pairs" if shift.paired else "seeds a side"
     if math.isinf(lo) and math.isinf(hi):
         what = f"too few runs for an interval ({have} {unit})"
+        if need is not None:
+            return f"{what}; at least {need} {units} needed"
     elif hi > tol:
         what = f"a worsening beyond {tol:.3g} is not ruled out"
     else:
@@ -170,5 +177,5 @@ def _inconclusive_reason(shift: Shift, tol: float, worse: float, need: int | Non
     if need is None:
         return f"{what}; more seeds may not settle it (the estimate is on the tolerance)"
     if need > MAX_SEEDS:
-        return f"{what}; more than {MAX_SEEDS} {unit} needed"
-    return f"{what}; about {need} {unit} needed ({have} now)"
+        return f"{what}; more than {MAX_SEEDS} {units} needed"
+    return f"{what}; about {need} {units} needed ({have} now)"

@@ -62,8 +62,13 @@ def test_inconclusive_says_why_and_how_many_seeds() -> None:
     assert got.seeds_needed is not None and got.seeds_needed > 5
     assert f"about {got.seeds_needed} seeds a side needed (5 now)" in got.reason
     few = verdict([0.8, 0.8], [0.5, 0.5], paired=True)
-    assert few.verdict is Verdict.INCONCLUSIVE and "too few runs" in few.reason
+    assert few.verdict is Verdict.INCONCLUSIVE
+    assert few.reason == "too few runs for an interval (2 pairs); at least 5 pairs needed"
     assert few.seeds_needed == 5  # 2⁻⁵ ≤ 0.05: the fewest pairs with an interval
+    one = verdict([0.8], [0.5])  # no spread measured: the fewest with an interval
+    assert (
+        one.reason == "too few runs for an interval (1 seed a side); at least 3 seeds a side needed"
+    )
 
 
 def test_seeds_needed_by_hand() -> None:
