@@ -77,6 +77,7 @@ def _g(x: float, digits: int = 3) -> str:
     type=click.FloatRange(min=0.0, max=0.5, min_open=True, max_open=True),
     default=0.05,
     show_default=True,
+    metavar="ALPHA",
     help="Significance: a regression, an improvement or no change is stated with "
     "confidence 1 − ALPHA; the intervals shown are the two-sided 1 − 2·ALPHA ones.",
 )
