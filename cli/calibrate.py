@@ -9,7 +9,7 @@ from pathlib import Path
 
 import click
 
-from flylog.cli.common import Finite, reports_errors, stdout
+from flylog.cli.common import Finite, OutputPath, reports_errors, stdout
 
 _PAIR = click.Path(dir_okay=False, exists=True, path_type=Path)
 
@@ -36,7 +36,7 @@ _PAIR = click.Path(dir_okay=False, exists=True, path_type=Path)
 @click.option(
     "-o",
     "--output",
-    type=click.Path(dir_okay=False, path_type=Path),
+    type=OutputPath(dir_okay=False, path_type=Path),
     required=True,
     help="The model's JSON file (flylog/fly/confidence.json is the packaged one).",
 )

@@ -132,6 +132,25 @@ def _pm(mean: float, sd: float, n: int) -> str:
     help="Refuse a sweep whose cells and simulated inputs would write more than SIZE "
     f"(estimated, e.g. 100G). [default: {human_bytes(SWEEP_MAX_OUTPUT_SIZE)}]",
 )
+@click.option(
+    "--seeds",
+    "seeds_text",
+    default=None,
+    metavar="SEEDS",
+    help="The engine seeds instead of the spec's: N (0 … N−1), A-B, or a list such as "
+    "0,3,10-14. One side of an A/B comparison: run the same spec for the base and the "
+    "candidate, each with its seeds (the same seeds pair the cells). [default: the spec's]",
+)
+@click.option(
+    "--config",
+    "config_file",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    metavar="FILE",
+    help="Replay configuration (TOML, as `flylog replay --config`) instead of the spec's "
+    "`config`, under its variants and grid: the same spec for a base and a candidate "
+    "configuration. [default: the spec's]",
+)
 @reports_errors
 def sweep(
     spec: Path,
@@ -142,6 +161,8 @@ def sweep(
     force: bool,
     max_cells: int,
     max_output_size: int,
+    seeds_text: str | None,
+    config_file: Path | None,
 ) -> None:
     """Run the sweep SPEC (TOML: inputs × seeds × a grid of configuration keys × variants;
     see docs/sweep.md): each cell replays its log (or runs the closed loop) and scores it.
@@ -150,15 +171,18 @@ def sweep(
     from flylog.sweep.executors import Backend
     from flylog.sweep.limits import SweepLimits
     from flylog.sweep.runner import SweepOptions, run_sweep
+    from flylog.sweep.spec import load_spec, parse_seeds, with_overrides
     from flylog.sweep.summary import MAIN_METRICS, summarize
 
     limits = SweepLimits(max_cells=max_cells, max_output_size=max_output_size)
     options = SweepOptions(
         Backend(backend), workers=workers, address=address, force=force, limits=limits
     )
+    seeds = None if seeds_text is None else parse_seeds(seeds_text)
+    loaded = with_overrides(load_spec(spec), seeds=seeds, config=config_file)
     try:
         with _cells_bar() as update:
-            result = run_sweep(spec, output, options, on_progress=update)
+            result = run_sweep(loaded, output, options, on_progress=update)
     except (KeyboardInterrupt, Terminated) as exc:
         signum = exc.signum if isinstance(exc, Terminated) else signal.SIGINT
         how = (

@@ -277,8 +277,12 @@ def _default_tolerances() -> list[str]:
     lines = [
         "### Default tolerances",
         "",
-        "A metric is judged only if it has a tolerance; the candidate regresses if its mean "
-        "is worse than the base's by more than max(absolute, relative × |base mean|).",
+        "A metric is judged only if it has a tolerance (a wall-clock figure only with one "
+        "given for it; in open loop the trajectory's figures never: they are the log's). The "
+        "candidate regresses if its worsening exceeds max(absolute, relative × |base mean|) "
+        "with confidence 1 − alpha ([metrics.md](metrics.md#comparing-runs)). The run's metrics' "
+        "defaults are their seed-to-seed sd on the bundled scenes, rounded up; the "
+        "trajectory's are not measured.",
         "",
         "| metric | direction | absolute | relative |",
         "|---|---|---|---|",

@@ -182,21 +182,3 @@ def read_results(path: Path) -> tuple[list[str], list[dict[str, Any]]]:
         msg = f"{found}: not a sweep's results (no {METADATA_KEY} metadata; made by flylog sweep)"
         raise LogError(msg)
     return list(json.loads(raw)["grid_keys"]), table.to_pylist()
-
-
-def damaged_inputs(rows: Sequence[Mapping[str, Any]]) -> list[str]:
-    """A line for each row whose input lost messages or was read with a warning (tables
-    without these columns have none)."""
-    out = []
-    for row in rows:
-        lost = row.get("input_messages_lost") or 0
-        said = (row.get("input_warnings") or "").strip()
-        if lost or said:
-            first = said.splitlines()[0] if said else ""
-            more = len(said.splitlines()) - 1
-            out.append(
-                f"cell {row.get('cell')} ({row.get('run_dir')}): {lost} input messages lost"
-                + (f"; {first}" if first else "")
-                + (f" (and {more} more warnings)" if more > 0 else "")
-            )
-    return out

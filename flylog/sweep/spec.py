@@ -7,6 +7,7 @@ describes the format; ``fixtures/sweeps/example.toml`` is an example.
 
 from __future__ import annotations
 
+import dataclasses
 import enum
 import glob
 import itertools
@@ -313,15 +314,66 @@ def parse_spec(data: Mapping[str, Any], source: Path) -> SweepSpec:
         metrics=metrics,
     )
     if len(problems.lines) == before:  # cross-field checks of every effective configuration
-        for variant, point in itertools.product(spec.variants, spec.grid_points()):
-            try:
-                spec.config(variant, point, 0)
-            except (ValueError, ConfigError) as exc:
-                shown = ", ".join(f"{k} = {v!r}" for k, v in point) or "no grid key"
-                problems.add(f"{source}: variant {variant.name!r} with {shown}: {exc}")
+        problems.lines += _combination_problems(spec, str(source))
     if problems.lines:
         raise ConfigError("\n".join(dict.fromkeys(problems.lines)))
     return spec
+
+
+def _combination_problems(spec: SweepSpec, source: str) -> list[str]:
+    out = []
+    for variant, point in itertools.product(spec.variants, spec.grid_points()):
+        try:
+            spec.config(variant, point, 0)
+        except (ValueError, ConfigError) as exc:
+            shown = ", ".join(f"{k} = {v!r}" for k, v in point) or "no grid key"
+            out.append(f"{source}: variant {variant.name!r} with {shown}: {exc}")
+    return out
+
+
+def parse_seeds(text: str, *, source: str = "--seeds") -> tuple[int, ...]:
+    """Engine seeds from a command line: ``N`` (0 … N−1, as the spec's count), ``A-B``
+    (A … B), or a comma-separated list of seeds and ranges (``0,3,10-14``)."""
+    text = text.strip()
+    seeds: list[int] = []
+    try:
+        if text.isdigit():
+            count = int(text)
+            if count < 1:
+                raise ValueError(text)
+            return tuple(range(count))
+        for part in text.split(","):
+            first, dash, last = part.strip().partition("-")
+            lo, hi = int(first), int(last) if dash else int(first)
+            if lo < 0 or hi < lo:
+                raise ValueError(part)
+            seeds += range(lo, hi + 1)
+    except ValueError:
+        seeds = []
+    if not seeds or len(set(seeds)) != len(seeds):
+        msg = (
+            f"{source}: expected N (seeds 0 … N−1), A-B, or a list such as 0,3,10-14 of "
+            f"distinct seeds ≥ 0, got {text!r}"
+        )
+        raise ConfigError(msg, parameter="seeds")
+    return tuple(seeds)
+
+
+def with_overrides(
+    spec: SweepSpec, *, seeds: tuple[int, ...] | None = None, config: Path | None = None
+) -> SweepSpec:
+    """``spec`` with its engine seeds and its base replay configuration replaced (one side
+    of an A/B comparison: the same spec, each side's seeds or configuration)."""
+    changes: dict[str, Any] = {}
+    if seeds is not None:
+        changes["seeds"] = tuple(seeds)
+    if config is not None:
+        changes["base"] = load_replay_config(Path(config))
+    out = dataclasses.replace(spec, **changes)
+    problems = _combination_problems(out, f"{spec.source} with --config {config}")
+    if problems:
+        raise ConfigError("\n".join(problems))
+    return out
 
 
 def load_spec(path: Path) -> SweepSpec:

@@ -153,6 +153,12 @@ CASES: dict[str, list[tuple[list[str], str, str]]] = {
     "experiment": [
         (["experiment", "proprioception", "-o", "s.toml"], OUT, "s.toml"),
     ],
+    "calibrate": [
+        (["calibrate", "--fit", "run.mcap", "log.mcap", "-o", "run.mcap"], OUT, "run.mcap"),
+        (["calibrate", "--fit", "run.mcap", "log.mcap", "-o", "log.mcap"], OUT, "log.mcap"),
+    ],
+    # describe prints a table's columns and writes nothing
+    "describe": [],
 }  # fmt: skip
 
 

@@ -52,7 +52,7 @@ def test_a_cell_on_a_damaged_log_counts_what_it_lost(tmp_path):
     (written,) = read_results(results)[1]
     assert written["input_messages_lost"] == row["input_messages_lost"]
     result = CliRunner().invoke(cli, ["compare", str(results), str(results)])
-    assert "note:" in result.output and "input messages lost" in result.output
+    assert "input damaged" in result.output and "input messages lost" in result.output
 
 
 def test_an_intact_input_has_none(tmp_path):
