@@ -40,11 +40,17 @@ def write_sweep(path: Path, precision, seeds=range(5), **extra) -> Path:
                 rows.append(row)
     path.mkdir(parents=True, exist_ok=True)
     write_results(path / "results.parquet", GRID, rows, path / "spec.toml")
-    if extra:  # columns of another flylog version's results: added as they are
+    if extra:  # columns set per input and seed: replaced where the sweep writes them
         table = pq.read_table(path / "results.parquet")
         for name, value in extra.items():
-            column = [value(r["input"], r["seed"]) for r in rows]
-            table = table.append_column(name, pa.array(column))
+            column = pa.array(
+                [value(r["input"], r["seed"]) for r in rows],
+                type=table.schema.field(name).type if name in table.column_names else None,
+            )
+            if name in table.column_names:
+                table = table.set_column(table.column_names.index(name), name, column)
+            else:
+                table = table.append_column(name, column)
         pq.write_table(table, path / "results.parquet")
     return path
 
