@@ -24,6 +24,7 @@ from numba.core import cgutils
 from numba.extending import intrinsic
 
 from flylog.fly.fitness_terms import FRACTION_BITS
+from flylog.fly.measure import VectorSums
 
 HALF = 16  # int16 lanes per 256-bit vector
 LANES = 2 * HALF
@@ -281,8 +282,18 @@ def target_has_avx2() -> bool:
 
 
 PAIR_SUMS = pair_sums_x86 if target_has_avx2() else pair_sums_generic
-window_terms_16 = window_terms_intrinsic(PAIR_SUMS, 1)
-window_terms_32 = window_terms_intrinsic(PAIR_SUMS, 2)
+
+
+def vector_variants(factory) -> VectorSums:
+    """The four intrinsics a measure's sums take from ``factory``
+    (:func:`window_terms_intrinsic` or :func:`ncc_terms_intrinsic`): 16 and 32 lanes,
+    whole-pixel and sub-pixel."""
+    return VectorSums(
+        half=factory(PAIR_SUMS, 1),
+        wide=factory(PAIR_SUMS, 2),
+        half_subpixel=factory(PAIR_SUMS, 1, subpixel=True),
+        wide_subpixel=factory(PAIR_SUMS, 2, subpixel=True),
+    )
 
 
 @numba.njit(cache=True, nogil=True)
@@ -316,8 +327,10 @@ def ncc_terms_intrinsic(pair_sums, halves: int, subpixel: bool = False):
         w = _Window(context, builder, signature, args, subpixel, pair_sums)
 
         def zeros(vector_type):
-            return [cgutils.alloca_once_value(builder, ir.Constant(vector_type, None))
-                    for _ in range(halves)]  # fmt: skip
+            return [
+                cgutils.alloca_once_value(builder, ir.Constant(vector_type, None))
+                for _ in range(halves)
+            ]
 
         lane_mask = [w.mask(_MASK_LANES, h) for h in range(halves)]
         sl, sr = zeros(_WORDS), zeros(_WORDS)
@@ -381,11 +394,3 @@ def ncc_terms_intrinsic(pair_sums, halves: int, subpixel: bool = False):
         return context.make_tuple(builder, signature.return_type, [cov, vl, vr, grad2])
 
     return _intrinsic(codegen, 4, subpixel)
-
-
-ncc_terms_16 = ncc_terms_intrinsic(PAIR_SUMS, 1)
-ncc_terms_32 = ncc_terms_intrinsic(PAIR_SUMS, 2)
-window_terms_sub_16 = window_terms_intrinsic(PAIR_SUMS, 1, subpixel=True)
-window_terms_sub_32 = window_terms_intrinsic(PAIR_SUMS, 2, subpixel=True)
-ncc_terms_sub_16 = ncc_terms_intrinsic(PAIR_SUMS, 1, subpixel=True)
-ncc_terms_sub_32 = ncc_terms_intrinsic(PAIR_SUMS, 2, subpixel=True)
