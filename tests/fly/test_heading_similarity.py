@@ -78,7 +78,9 @@ def test_zssd_is_the_scans_default():
     np.testing.assert_allclose(zssd, plain, rtol=1e-9)
 
 
-@pytest.mark.parametrize("similarity", [s for s in Similarity if s is not Similarity.ZSSD])
+@pytest.mark.parametrize(
+    "similarity", [Similarity.ZNCC, Similarity.GAIN_ZSSD, Similarity.CONTRAST_ZNCC]
+)
 def test_gain_invariant_measures_ignore_a_gain_of_the_later_patch(similarity):
     rng = np.random.default_rng(5)
     a, b = rng.uniform(0, 120, (2, 50, 147))

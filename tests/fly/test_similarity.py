@@ -9,7 +9,7 @@ from flylog.fly import fitness_vector
 from flylog.fly.config import Gradient, Similarity
 from flylog.fly.fitness import INVALID_FITNESS, fitness_numba, fitness_numpy
 from flylog.fly.fitness_terms import FRACTION, sobel_norm2, windows_into
-from flylog.fly.measures import NCC_SCALE, measure_of
+from flylog.fly.measures import CORRELATION, DIFFERENCE, NCC_SCALE, measure_of
 from tests.fly.plain_patches import SMALL, plain_fitness, random_case
 
 ZNCC = Similarity.ZNCC
@@ -152,8 +152,20 @@ PAIR_SUMS = [fitness_vector.pair_sums_generic] + (
 )
 
 
+# The vector intrinsics' factory of each kind of window sums that has vector forms.
+FACTORIES = {
+    DIFFERENCE: fitness_vector.window_terms_intrinsic,
+    CORRELATION: fitness_vector.ncc_terms_intrinsic,
+}
+VECTOR_MEASURES = [s for s in Similarity if measure_of(s).sums.vector is not None]
+
+
+def test_every_measure_with_vector_sums_is_checked_below():
+    assert {measure_of(s).sums for s in VECTOR_MEASURES} <= set(FACTORIES)
+
+
 @pytest.mark.parametrize("pair_sums", PAIR_SUMS, ids=lambda f: f.__name__)
-@pytest.mark.parametrize("similarity", list(Similarity))
+@pytest.mark.parametrize("similarity", VECTOR_MEASURES)
 @pytest.mark.parametrize(("halves", "window", "channels"), [(1, 5, 3), (2, 7, 3), (2, 31, 1)])
 def test_subpixel_vector_terms_equal_the_copied_windows_for_every_weight(
     pair_sums, similarity, halves, window, channels
@@ -161,10 +173,7 @@ def test_subpixel_vector_terms_equal_the_copied_windows_for_every_weight(
     # The interpolating intrinsics against the lane loop on windows copied by windows_into,
     # for every weight q, on random bytes and on right rows of 0 and 255 (the largest |b − a|).
     sums = measure_of(similarity).sums
-    factory = fitness_vector.window_terms_intrinsic
-    if sums.count == 3:
-        factory = fitness_vector.ncc_terms_intrinsic
-    terms = factory(pair_sums, halves, subpixel=True)
+    terms = FACTORIES[sums](pair_sums, halves, subpixel=True)
     lanes = sums.lanes
 
     @numba.njit
