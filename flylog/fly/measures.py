@@ -3,7 +3,7 @@ window sums and its finishing step. :data:`MEASURES` maps the configuration's
 :class:`~flylog.fly.config.Similarity` to them; every user (fitness kernel and reference,
 scouts, distinctness, heading) takes a measure from there.
 
-Two kinds of window sums serve the four measures, with n = w×w pixels and C channels, all in
+Three kinds of window sums serve the five measures, with n = w×w pixels and C channels, all in
 integers on uint8 images (the compiled kernel and the numpy reference get the same integers,
 then the same float steps):
 
@@ -14,7 +14,9 @@ then the same float steps):
   ``vl_c = n·Σl² − (Σl)²``, ``vr_c = n·Σr² − (Σr)²``, summed over channels. ZNCC pooled
   over channels is ``Σ_c cov_c / sqrt(Σ_c vl_c · Σ_c vr_c)`` (0 when either patch is flat):
   unchanged when the right image is ``a·R + b`` for any gain a > 0 and offsets b per
-  channel.
+  channel;
+- the absolute differences' (:data:`ABSOLUTE`): Σ|d| over every pixel and channel, by the
+  lane loop alone (no vector form: every window takes the scalar loop).
 
 The finishing steps:
 
@@ -34,7 +36,9 @@ The finishing steps:
   ZNCC)``, s = 4: the geometric mean of zncc's ``2·s²`` and gain_zssd's ``2·σL²`` weights,
   so zncc's at σL = s. Unchanged by a gain and offsets of the right image as both; under
   noise of sd σ a right match scores ≈ 2·s·σ²/σL per pixel, a flat patch ≈ 2·s·σ at any
-  depth, so texture wins over flat noise (gain_zssd scores both ≈ 2·σ²).
+  depth, so texture wins over flat noise (gain_zssd scores both ≈ 2·σ²);
+- sad: ``(Σ|d|)²/(n·C)``, the SSD of a uniform difference of the same mean |d|: the guard
+  keeps its unit. Not zero-mean: an offset between the cameras counts.
 """
 
 from __future__ import annotations
@@ -248,6 +252,72 @@ def zncc_numpy(cov, vl, vr) -> np.ndarray:
         return np.where(product > 0.0, cov / np.sqrt(product), 0.0)
 
 
+# --- sum of absolute differences: (Σ|d|,) ------------------------------------------------------
+
+
+@numba.njit(cache=True, nogil=True)
+def sad_lanes(lflat, rflat, bl, br, stride, window, channels, scratch):  # pragma: no cover
+    """(Σ|d|,) over the window's pixels and channels: |d| summed per (column, channel) lane in
+    ``scratch`` (≥ 1, ≥ window·channels) int32, then over the lanes."""
+    ncols = window * channels
+    col = scratch[0]
+    for j in range(ncols):
+        col[j] = 0
+    ul, ur, ustride = np.uint64(bl), np.uint64(br), np.uint64(stride)
+    for _ in range(window):
+        for j in range(ncols):
+            d = np.int32(lflat[ul + np.uint64(j)]) - np.int32(rflat[ur + np.uint64(j)])
+            col[j] += abs(d)
+        ul += ustride
+        ur += ustride
+    total = np.int64(0)
+    for j in range(ncols):
+        total += col[j]
+    return (total,)
+
+
+@numba.njit(cache=True, nogil=True)
+def sad_patch_sums(a, b, channels):  # pragma: no cover - compiled
+    """(Σ|d|,) of two float patches (n·C,), channel last."""
+    total = 0.0
+    for ch in range(channels):
+        for t in range(ch, a.shape[0], channels):
+            total += abs(a[t] - b[t])
+    return (total,)
+
+
+def sad_sums_numpy(a: np.ndarray, b: np.ndarray, channels: int) -> tuple[np.ndarray, ...]:
+    """Reference: :func:`sad_patch_sums` of (M, n·C) patch pairs, its additions in its order."""
+    total = np.zeros(a.shape[0], dtype=np.result_type(a.dtype, b.dtype))
+    for ch in range(channels):
+        for t in range(ch, a.shape[1], channels):
+            total += np.abs(a[:, t] - b[:, t])
+    return (total,)
+
+
+ABSOLUTE = WindowSums(
+    name="absolute",
+    count=1,
+    lanes=sad_lanes,
+    scratch_rows=1,
+    patches=sad_patch_sums,
+    numpy=sad_sums_numpy,
+)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def sad_finish(sums, n, channels):  # pragma: no cover - compiled
+    """(Σ|d|)²/(n·C): the SSD of a uniform difference of SAD's mean |d| (grey level² summed
+    over the window, the guard's unit)."""
+    return float(sums[0]) * float(sums[0]) / (n * channels)
+
+
+def sad_finish_numpy(sums, n: int, channels: int) -> np.ndarray:
+    """Reference: :func:`sad_finish` of arrays."""
+    total = np.asarray(sums[0]).astype(np.float64)
+    return total * total / (n * channels)
+
+
 # --- the measures: sums and finishing step ---------------------------------------------------
 
 
@@ -304,9 +374,10 @@ GAIN_ZSSD = Measure(Similarity.GAIN_ZSSD, CORRELATION, gain_zssd_finish, gain_zs
 CONTRAST_ZNCC = Measure(
     Similarity.CONTRAST_ZNCC, CORRELATION, contrast_zncc_finish, contrast_zncc_finish_numpy
 )
+SAD = Measure(Similarity.SAD, ABSOLUTE, sad_finish, sad_finish_numpy)
 
 MEASURES: dict[Similarity, Measure] = {
-    m.similarity: m for m in (ZSSD, ZNCC, GAIN_ZSSD, CONTRAST_ZNCC)
+    m.similarity: m for m in (ZSSD, ZNCC, GAIN_ZSSD, CONTRAST_ZNCC, SAD)
 }
 
 
