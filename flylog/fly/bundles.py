@@ -82,7 +82,7 @@ class Breeding(NamedTuple):
 
 
 class Scouting(NamedTuple):
-    """This generation's scouts (:meth:`flylog.fly.scouts.Scouting.kernel_args`): their share
+    """This generation's scouts (:meth:`flylog.fly.scouts.Scouting.bundle`): their share
     of the uniform immigrants (0: none), the strip, K depths, constants and scratch."""
 
     fraction: float

@@ -6,9 +6,9 @@ One generation (paper §2): evaluate the flies whose images changed, fuse sonar,
 select the best fraction, refill with offspring and immigrants, evaluate the newcomers.
 
 The engine holds the data (:class:`~flylog.fly.state.EngineState`); a back-end makes the
-generations (:class:`Backend`): :class:`~flylog.fly.numba_backend.NumbaBackend`, compiled, or
-:class:`~flylog.fly.numpy_backend.NumpyBackend`, the numpy references. Both make the same
-population from the same seed.
+generations (:class:`EngineBackend`): :class:`~flylog.fly.numba_backend.NumbaBackend`,
+compiled, or :class:`~flylog.fly.numpy_backend.NumpyBackend`, the numpy references. Both make
+the same population from the same seed.
 """
 
 from __future__ import annotations
@@ -18,8 +18,7 @@ from typing import Protocol
 import numpy as np
 
 from flylog.errors import FlylogError
-from flylog.fly.config import Backend as BackendName
-from flylog.fly.config import EngineConfig
+from flylog.fly.config import Backend, EngineConfig
 from flylog.fly.numba_backend import NumbaBackend
 from flylog.fly.numpy_backend import NumpyBackend
 from flylog.fly.population import Population
@@ -29,7 +28,7 @@ from flylog.geometry import Pose2D, StereoRig
 from flylog.sensors import SonarReading, StereoPair
 
 
-class Backend(Protocol):
+class EngineBackend(Protocol):
     """What makes the engine's generations."""
 
     def steps(self, count: int) -> list[GenerationStats]:
@@ -48,9 +47,9 @@ class FlyEngine:
         self.config = config
         self.rig = rig
         self._state = EngineState(config, rig, rng)
-        self._backend: Backend = (
+        self._backend: EngineBackend = (
             NumbaBackend(self._state)
-            if config.backend is BackendName.NUMBA
+            if config.backend is Backend.NUMBA
             else NumpyBackend(self._state)
         )
 

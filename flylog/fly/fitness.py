@@ -1,12 +1,12 @@
-"""The fly's fitness: gradient over zero-mean SSD between its two projections (paper §2.1.1).
+"""The fly's fitness: gradient over the dissimilarity of its two projections (paper §2.1.1).
 
-``fitness = G / (Σ_c ZSSD_c + guard·n·C)`` where, for each channel c, over the n = w×w
-neighbourhood with d = L − R, ``ZSSD_c = Σd² − (Σd)²/n`` (the SSD of the two patches once each
-has lost its own mean), and ``G = sqrt(|Sobel|)``, the square root of the Sobel gradient norm
-of the left image at the left projection (summed over channels under the norm). With
-:attr:`Gradient.HORIZONTAL` the norm is of gx alone (``gy_weight`` 0 in the kernels):
-``G = sqrt((Σ_c gx_c²)^½)``, equal to the paper's G wherever gy = 0 (a vertical edge) and 0 on
-a horizontal edge, along which a horizontal disparity cannot be measured.
+``fitness = G / (D + guard·n·C)`` over the n = w×w neighbourhood and C channels, where D is
+the similarity measure's dissimilarity (:mod:`flylog.fly.measures`: the paper's zero-mean SSD
+``Σ_c (Σd² − (Σd)²/n)``, d = L − R, by default) and ``G = sqrt(|Sobel|)``, the square root
+of the Sobel gradient norm of the left image at the left projection (summed over channels
+under the norm). With :attr:`Gradient.HORIZONTAL` the norm is of gx alone (``gy_weight`` 0 in
+the kernels): ``G = sqrt((Σ_c gx_c²)^½)``, equal to the paper's G wherever gy = 0 (a vertical
+edge) and 0 on a horizontal edge, along which a horizontal disparity cannot be measured.
 
 Projections are rounded to the nearest pixel (``floor(u + 0.5)``); with sub-pixel sampling
 the right window is interpolated at the exact right projection instead
