@@ -13,12 +13,12 @@ LOGS = Path(__file__).resolve().parents[2] / "fixtures" / "logs"
 
 CASES = [
     # the default configuration (zssd, sub-pixel, heading, scouts while turning)
-    ("turn.mcap", 0, {}, "96ecb19ca64244ef17a97b3a0d7f17e0804f649c9cf4912b804bfc532e4c069f"),
+    ("turn.mcap", 0, {}, "398113da2a5c760f7cd86e7a8d18dade0973756be93a4b4dddde46990167e84b"),
     (
         "turn.mcap",
         1,
         {"engine.similarity": "zncc", "engine.subpixel": False},
-        "12380cb631e2169d5924104b5440ff216f13a8a7a114fdb7dc6ba4a0fbc963ea",
+        "60998ecdf6c659dc3ea27cdf046f5cf4c217157a316f80e7d9403d07bbbb330c",
     ),
 ]
 
