@@ -23,7 +23,6 @@ from flylog.config import replace_dotted
 from flylog.replay.config import ReplayConfig
 from flylog.replay.run import replay, table_path
 
-
 # What the engine and the planner publish in a run.
 TOPICS = ("/flies", "/flies/overlay", "/planner/potential", "/planner/path", "/planner/command")
 
