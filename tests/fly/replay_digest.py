@@ -2,7 +2,8 @@
 the engine and the planner write (topic, log time, bytes, in file order) and over the values
 of the step table's Parquet content in column order. Topics a run gained beside these (the
 planner's obstacle map) and the table's column names (which carry units) are left out, so
-that a digest recorded before them still tells whether the engine's output changed. Run as a script with any installation of flylog to record a digest:
+that a digest recorded before them still tells whether the engine's output changed.
+Run as a script with any installation of flylog to record a digest:
 
     python tests/fly/replay_digest.py LOG SEED [engine.key=value ...]
 """
