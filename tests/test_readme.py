@@ -74,7 +74,7 @@ def test_the_readme_commands_are_found() -> None:
     names = {c.args[0] for c in commands}
     assert {"simulate", "replay", "metrics", "compare", "report", "export"} <= names
     assert {"import", "sweep", "experiment"} <= names
-    assert any(c.exits == {1} for c in commands) and any(c.exits == {0, 1} for c in commands)
+    assert any(c.exits == {0, 1} for c in commands)  # a gate whose verdict may be either
 
 
 def _motorcycle(folder: Path) -> None:
