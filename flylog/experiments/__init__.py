@@ -69,7 +69,8 @@ def run_experiment(
     on_progress: Progress | None = None,
 ) -> ExperimentResult:
     """Run the experiment ``name`` into ``out_dir/name/``, its cells one after the other in
-    this process; ``on_progress(cells done, cells)``."""
+    this process; ``on_progress(done, total)`` in the cells' expected work (log
+    seconds), moving within each cell."""
     from flylog.experiments.parallel import run_plans_serially
 
     return run_plans_serially([experiment_plan(name, out_dir, options)], on_progress)[0]

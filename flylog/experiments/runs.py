@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from flylog.config import replace_dotted
+from flylog.experiments.cell_progress import stage
 from flylog.experiments.common import ExperimentOptions
 from flylog.replay.config import ReplayConfig
 
@@ -48,7 +49,7 @@ def simulate_scene(
             return PlannerDriver(drive_with, scene.spec.camera, scene.start_pose, scene.goal, write)
 
     sim = SimulationOptions(duration=duration, seed=seed, resolution=options.resolution)
-    simulate(scene, output, sim, make_driver=make_driver)
+    simulate(scene, output, sim, make_driver=make_driver, on_frame=stage(duration))
     return output
 
 
@@ -74,7 +75,7 @@ def replay_and_score(log: Path, run: Path, config: ReplayConfig) -> ScoredRun:
     """Replay ``log`` with ``config`` into ``run`` and score it against the log's truth."""
     from flylog.replay.run import replay
 
-    replay(log, run, config)
+    replay(log, run, config, on_progress=stage())
     return score(run, log)
 
 

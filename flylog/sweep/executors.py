@@ -157,22 +157,37 @@ class ProcessPool:
         return min(self.workers, self._pending)
 
     def map_unordered(
-        self, fn: Callable[[A], R], items: Sequence[A], lost: Lost[R] | None = None
+        self,
+        fn: Callable[[A], R],
+        items: Sequence[A],
+        lost: Lost[R] | None = None,
+        *,
+        tick: Callable[[], None] | None = None,
+        every: float = 0.5,
     ) -> Iterator[tuple[int, R]]:
-        from concurrent.futures import as_completed
+        """As the protocol's; ``tick()`` is called in this thread every ``every`` seconds
+        while no call finishes (e.g. to read the workers' progress)."""
+        from concurrent.futures import FIRST_COMPLETED, wait
         from concurrent.futures.process import BrokenProcessPool
 
         futures = {self._submit(fn, item): i for i, item in enumerate(items)}
         self._pending = len(futures)
+        waiting = set(futures)
         try:
-            for future in as_completed(futures):
-                self._pending -= 1
-                i = futures[future]
-                try:
-                    result = future.result()
-                except BrokenProcessPool as exc:  # every call not finished then fails so
-                    result = _lost(lost, i, f"a worker process ended abruptly ({exc})")
-                yield i, result
+            while waiting:
+                finished, waiting = wait(
+                    waiting, timeout=None if tick is None else every, return_when=FIRST_COMPLETED
+                )
+                if not finished and tick is not None:
+                    tick()
+                for future in finished:
+                    self._pending -= 1
+                    i = futures[future]
+                    try:
+                        result = future.result()
+                    except BrokenProcessPool as exc:  # every call not finished then fails so
+                        result = _lost(lost, i, f"a worker process ended abruptly ({exc})")
+                    yield i, result
         finally:
             for future in futures:
                 future.cancel()

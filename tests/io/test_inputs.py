@@ -28,6 +28,8 @@ NOT_INPUTS = {
     ("ros2/bagwriter.py", "open"),
     # the sweep folder's lock file, opened to hold an fcntl lock, never read as an input
     ("sweep/lock.py", "open"),
+    # a running cell's progress figure, written by its worker in a temporary directory
+    ("experiments/cell_progress.py", "read_text"),
     # os.open: the atomic writer's own temporary file and directory (fsync)
     ("io/atomic.py", "open"),
 }
