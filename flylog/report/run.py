@@ -228,26 +228,33 @@ def _curves(
     return panels, ylims, notes
 
 
-def _metrics(run: Path, log: Path, metrics: Path | None) -> tuple[dict, list[dict]]:
-    """(summary, snapshot rows): read from a `flylog metrics -o` output, else scored now."""
+def _metrics(run: Path, log: Path, metrics: Path | None) -> tuple[dict, list[dict], list[dict]]:
+    """(summary, snapshot rows, reliability rows): read from a `flylog metrics -o` output
+    (no reliability rows when it wrote none), else scored now."""
     if metrics is None:
         from flylog.metrics.config import MetricsConfig
         from flylog.metrics.score import score_run
 
         result = score_run(run, log, MetricsConfig())
-        return result.summary, result.snapshots
+        return result.summary, result.snapshots, result.reliability
+    from flylog.metrics.tables import read_summary, reliability_path
+
+    summary = read_summary(metrics)
+    snapshots = _rows(metrics, "the metrics table")
+    found = reliability_path(metrics)
+    reliability = _rows(found, "the reliability table") if found.is_file() else []
+    return summary, snapshots, reliability
+
+
+def _rows(path: Path, what: str) -> list[dict]:
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    from flylog.metrics.tables import read_summary
-
-    summary = read_summary(metrics)
     try:
-        snapshots = pq.read_table(input_path(metrics, "the metrics table")).to_pylist()
+        return pq.read_table(input_path(path, what)).to_pylist()
     except (pa.ArrowInvalid, OSError) as exc:
-        msg = f"{metrics}: not a readable metrics table ({exc})"
+        msg = f"{path}: not a readable {what.removeprefix('the ')} ({exc})"
         raise LogError(msg) from None
-    return summary, snapshots
 
 
 def run_report(run: Path, log: Path | None, output: Path, *, metrics: Path | None = None) -> Path:
@@ -256,12 +263,13 @@ def run_report(run: Path, log: Path | None, output: Path, *, metrics: Path | Non
     ``flylog metrics -o`` output of that run). A run on an imported dataset's log is drawn
     against its ground-truth disparity (flylog.report.dataset)."""
     from flylog.metrics.image_run import has_image_truth
+    from flylog.report.reliability import reliability_section
 
     run, log = Path(run), Path(log if log is not None else run)
     if Path(output).resolve() in (run.resolve(), log.resolve()):
         msg = f"report would overwrite its input {output}: choose another -o"
         raise LogError(msg)
-    summary, snapshots = _metrics(run, log, metrics)
+    summary, snapshots, reliability = _metrics(run, log, metrics)
     config = _run_config(run)
     sgbm = config.get("stereo") == "sgbm"
     page = Page(f"flylog run {run.name}")
@@ -270,6 +278,8 @@ def run_report(run: Path, log: Path | None, output: Path, *, metrics: Path | Non
             _dataset_page(page, run, log, summary, config, Path(tmp), sgbm)
         else:
             _scene_page(page, run, log, summary, snapshots, config, Path(tmp), sgbm)
+        if not sgbm:
+            reliability_section(page, reliability, summary, Path(tmp))
     page.heading("Configuration")
     if not config:
         page.note("The run carries no flylog configuration.")

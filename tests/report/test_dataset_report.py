@@ -30,9 +30,10 @@ def test_a_dataset_run_is_drawn_against_its_ground_truth(tmp_path: Path) -> None
         "Summary",
         "Disparity error on the left image",
         "Error histogram",
+        "Confidence",
         "Configuration",
     ]
-    assert len(images) == 2 and all(i.shape[1] > 800 for i in images)
+    assert len(images) == 3 and all(i.shape[1] > 800 for i in images[:2])
     text = page.read_text(encoding="utf-8")
     assert "of the obstacle flies lie within 2 px of the true disparity" in text
     assert "<td>—</td>" not in text and "bad2" in text and "SGBM&#x27;s dense map" in text
@@ -40,3 +41,4 @@ def test_a_dataset_run_is_drawn_against_its_ground_truth(tmp_path: Path) -> None
     assert got.exit_code == 0, got.output
     text = (tmp_path / "sgbm.html").read_text(encoding="utf-8")
     assert "of the SGBM points lie within 2 px" in text and "obstacle flies" not in text
+    assert "Confidence" not in text  # SGBM's points carry no confidence

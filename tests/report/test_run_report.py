@@ -2,13 +2,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pyarrow.parquet as pq
 import pytest
 from click.testing import CliRunner
 
 from flylog.cli.main import cli
 from flylog.config import replace_dotted
 from flylog.metrics.score import score_run
-from flylog.metrics.tables import SUMMARY_COLUMNS, read_summary
+from flylog.metrics.tables import SUMMARY_COLUMNS, read_summary, reliability_path
 from flylog.replay.config import ReplayConfig
 from flylog.replay.run import replay
 
@@ -30,8 +31,9 @@ def test_the_page_has_every_section_and_decodable_images(run: Path, tmp_path: Pa
     got = CliRunner().invoke(cli, ["report", str(run), "--log", str(LOG), "-o", str(page)])
     assert got.exit_code == 0, got.output
     headings, images, tags = checked_page(page)
-    assert headings == ["Summary", "Map", "Left frames", "Over time", "Configuration"]
-    assert len(images) == 3  # map, frames, curves
+    sections = ["Summary", "Map", "Left frames", "Over time", "Confidence", "Configuration"]
+    assert headings == sections
+    assert len(images) == 4  # map, frames, curves, reliability
     text = page.read_text(encoding="utf-8")
     assert '<td class="text">precision</td>' in text and '"flies": 200' in text
     assert '<p class="verdict">' in text and "The obstacle flies reach F" in text
@@ -73,7 +75,15 @@ def test_the_metrics_outputs_are_shown_as_they_are(run: Path, tmp_path: Path) ->
     got = CliRunner().invoke(cli, args)
     assert got.exit_code == 0, got.output
     headings, images, _ = checked_page(page)
-    assert len(images) == 3 and "Over time" in headings
+    assert len(images) == 4 and "Over time" in headings and "Confidence" in headings
     text = page.read_text(encoding="utf-8")
     # the table's own precision (tau 0.2), not a score made now with the default tau
     assert f'<td class="text">precision</td><td>{precision:.4g}</td>' in text
+    # the reliability diagram draws the reliability table that metrics wrote beside it
+    judged = pq.read_table(reliability_path(metrics)).column("flies").to_pylist()
+    assert sum(judged) > 0 and f"over {sum(judged)} judged flies" in text
+    # without that table, the section says why there is no diagram
+    reliability_path(metrics).unlink()
+    again = CliRunner().invoke(cli, [*args[:-1], str(tmp_path / "again.html")])
+    assert again.exit_code == 0, again.output
+    assert "No reliability diagram" in (tmp_path / "again.html").read_text(encoding="utf-8")
