@@ -282,7 +282,7 @@ def _default_tolerances() -> list[str]:
         "candidate regresses if its worsening exceeds max(absolute, relative × |base mean|) "
         "with confidence 1 − alpha ([metrics.md](metrics.md#comparing-runs)). The run's metrics' "
         "defaults are their seed-to-seed sd on the bundled scenes, rounded up; the "
-        "trajectory's are not measured.",
+        "trajectory's, their sd over the closed-loop experiment's seeds (RPE's not measured).",
         "",
         "| metric | direction | absolute | relative |",
         "|---|---|---|---|",

@@ -118,7 +118,10 @@ DIRECTIONS: Mapping[str, Direction] = MappingProxyType(
 # The run's metrics: the seed-to-seed sd of the default configuration over engine seeds
 # 0-19 on 2 s of the bundled corridor and near-obstacle scenes at 320×240 (the larger of the
 # two scenes), rounded up to 1, 2 or 5 × a power of ten (docs/metrics.md#comparing-runs). The
-# trajectory's metrics (the run's only in closed loop) keep round figures: not measured.
+# trajectory's metrics (the run's only in closed loop): the largest seed-to-seed sd of the
+# closed-loop experiment (seeds 0-9 of corridor, clutter and doorways at 320×240,
+# docs/experiments/closed-loop/results.json) rounded up alike; RPE is not in that
+# experiment's results and keeps a round 10 %.
 DEFAULT_TOLERANCES: Mapping[str, Tolerance] = MappingProxyType(
     {
         "precision": Tolerance(_HI, absolute=0.005),  # sd 0.0041
@@ -130,10 +133,10 @@ DEFAULT_TOLERANCES: Mapping[str, Tolerance] = MappingProxyType(
         "detection_latency_mean_s": Tolerance(_LO, absolute=0.2),  # sd 0.13
         "planner_goal_reached": Tolerance(_HI),  # sd 0
         "goal_reached": Tolerance(_HI),
-        "time_to_goal_s": Tolerance(_LO, relative=0.1),
-        "min_clearance_m": Tolerance(_HI, absolute=0.05),
-        "collisions": Tolerance(_LO),
-        "ate_m": Tolerance(_LO, relative=0.1),
+        "time_to_goal_s": Tolerance(_LO, relative=0.2),  # sd 18.6 % of the mean (doorways)
+        "min_clearance_m": Tolerance(_HI, absolute=0.1),  # sd 0.0996 m (clutter)
+        "collisions": Tolerance(_LO),  # 0 on every seed
+        "ate_m": Tolerance(_LO, absolute=0.02),  # sd 0.0172 m (clutter)
         "rpe_m": Tolerance(_LO, relative=0.1),
     }
 )
