@@ -11,8 +11,6 @@ zero-padded so that names sort as times; the directory appears whole or not at a
 from __future__ import annotations
 
 import os
-import shutil
-import tempfile
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,6 +20,7 @@ import numpy as np
 from flylog.errors import LogError
 from flylog.fly.confidence import ConfidenceModel
 from flylog.io import contract, open_log
+from flylog.io.atomic import check_new_directory, staged_directory
 from flylog.io.ply import write_ply
 from flylog.io.records import FlyCloud, LogMessage
 
@@ -67,12 +66,7 @@ def export_ply(
     """Write the /flies snapshots of ``run`` (only the one nearest ``at`` seconds after the
     run's start, when given) as PLY files into the new directory ``output``."""
     run, output = Path(run), Path(output)
-    if output.exists():
-        msg = f"{output} exists: the PLY export writes a new directory, choose another DIR"
-        raise LogError(msg)
-    if not output.parent.is_dir():
-        msg = f"cannot write {output}: directory {output.parent} does not exist"
-        raise LogError(msg)
+    check_new_directory(output, "the PLY export", "DIR")
     reader = open_log(run)
     if contract.FLIES not in reader.topics():
         msg = f"{run} has no {contract.FLIES} topic: is it a run (`flylog replay` output)?"
@@ -83,10 +77,8 @@ def export_ply(
         target = t0 + round(at * 1e9)
         best = min(messages, key=lambda m: abs(m.log_time_ns - target))
         messages = iter([best])
-    staging = Path(tempfile.mkdtemp(prefix=f".{output.name}.", suffix=".part", dir=output.parent))
     files = points = 0
-    try:
-        directory = staging / output.name
+    with staged_directory(output) as directory:
         directory.mkdir()
         for m in messages:
             comments = [f"flylog run {run.name}", f"log time {m.log_time_ns} ns, frame base_link"]
@@ -99,7 +91,4 @@ def export_ply(
             points += len(m.value.xyz)
             if on_progress is not None:
                 on_progress((m.log_time_ns - t0) / 1e9, span / 1e9)
-        os.replace(directory, output)
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
     return PlyExport(output, files, points)

@@ -18,18 +18,26 @@ Outputs that belong together (the logs of one ``flylog import`` of many scenes) 
 published together by a :class:`Batch`: each is written in full to its temporary file and
 none is renamed before the last is complete, so a failure or a stop signal leaves every file
 that was there as it was.
+
+A directory output (a PLY export, a rosbag2 bag) is filled in a staging directory beside it
+and renamed onto its name when complete (:func:`staged_directory`): it never replaces
+anything, so it must be new (:func:`check_new_directory`).
 """
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import hashlib
 import os
 import re
 import secrets
+import shutil
 import signal
 import stat
+import tempfile
 import threading
+from collections.abc import Iterator
 from pathlib import Path
 from types import TracebackType
 
@@ -270,3 +278,34 @@ def write_bytes(path: Path, data: bytes) -> None:
 def write_text(path: Path, text: str, encoding: str = "utf-8") -> None:
     """Write ``text`` to ``path`` atomically."""
     write_bytes(path, text.encode(encoding))
+
+
+def check_new_directory(output: Path, what: str, option: str) -> None:
+    """OutputError unless ``output`` can be written as a new directory: it does not exist,
+    its parent does, and it is not inside an input directory (``what`` writes it, ``option``
+    names it on the command line)."""
+    output = Path(output)
+    if output.exists():
+        msg = f"{output} exists: {what} writes a new directory, choose another {option}"
+        raise OutputError(msg, path=output)
+    if not output.parent.is_dir():
+        msg = f"cannot write {output}: directory {output.parent} does not exist"
+        raise OutputError(msg, path=output)
+    refuse_to_replace(output)
+
+
+@contextlib.contextmanager
+def staged_directory(output: Path) -> Iterator[Path]:
+    """The path (not yet created) to fill in a staging directory beside ``output``; renamed
+    onto ``output`` when the block ends without error, removed with the staging directory
+    otherwise."""
+    output = Path(output)
+    # part_stem: a name of any legal length leaves room for mkdtemp's 8 characters
+    staging = Path(
+        tempfile.mkdtemp(prefix=f"{part_stem(output)}.", suffix=PART_SUFFIX, dir=output.parent)
+    )
+    try:
+        yield staging / output.name
+        os.replace(staging / output.name, output)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)

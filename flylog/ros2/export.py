@@ -21,8 +21,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
-import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -31,9 +29,9 @@ from typing import Any
 import numpy as np
 from mcap_protobuf.decoder import DecoderFactory
 
-from flylog.errors import LogError, OutputError
+from flylog.errors import LogError
 from flylog.io import contract, open_log
-from flylog.io.atomic import part_stem
+from flylog.io.atomic import check_new_directory, staged_directory
 from flylog.io.decode import image as rgb_of
 from flylog.io.decode import stamp_ns
 from flylog.ros2 import types
@@ -67,7 +65,7 @@ class ExportSummary:
     topics: int
 
 
-class _Bag:
+class Bag:
     """A rosbags writer with connections made on first use."""
 
     def __init__(self, path: Path) -> None:
@@ -103,36 +101,25 @@ def export_ros2(
     """Write the sensor topics of ``log`` (and with ``truth`` its true pose) as the rosbag2
     directory ``output``; nothing is left behind on failure."""
     log, output = Path(log), Path(output)
-    if output.exists():
-        msg = f"{output} exists: the ROS 2 export writes a new directory"
-        raise OutputError(msg, path=output)
-    if not output.parent.is_dir():
-        msg = f"cannot write {output}: directory {output.parent} does not exist"
-        raise LogError(msg)
+    check_new_directory(output, "the ROS 2 export", "OUT")
     reader = open_log(log)
     goal = reader.metadata().get(contract.SIMULATION_METADATA, {}).get("goal")
-    # part_stem: a name of any legal length leaves room for mkdtemp's 8 characters
-    prefix = f"{part_stem(output)}."
-    staging = Path(tempfile.mkdtemp(prefix=prefix, suffix=".part", dir=output.parent))
-    try:
-        bag = _Bag(staging / output.name)
+    with staged_directory(output) as directory:
+        bag = Bag(directory)
         if goal is not None:
             bag.writer.set_custom_data(GOAL_KEY, json.dumps(json.loads(goal)))
         for attachment in reader.attachments() if truth else ():
             if attachment.name == SCENE_ATTACHMENT:
                 bag.writer.set_custom_data(SCENE_KEY, attachment.data.decode("utf-8"))
         with bag.writer:
-            _Translation(bag, image_format).run(reader, truth, on_progress)
-        os.replace(staging / output.name, output)
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
+            Translation(bag, image_format).run(reader, truth, on_progress)
     return ExportSummary(output, bag.count, bag.topics)
 
 
-class _Translation:
+class Translation:
     """The flylog log's messages, one by one, as ROS 2 messages."""
 
-    def __init__(self, bag: _Bag, image_format: ImageFormat) -> None:
+    def __init__(self, bag: Bag, image_format: ImageFormat) -> None:
         self.bag = bag
         self.fmt = image_format
         self.protobuf = DecoderFactory()

@@ -22,8 +22,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
-import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -38,10 +36,11 @@ from flylog.fly.obstacles import ObstacleFlies
 from flylog.fly.snapshot_export import cloud_columns
 from flylog.geometry import StereoRig
 from flylog.io import contract, open_log
+from flylog.io.atomic import check_new_directory, staged_directory
 from flylog.io.reader import LogReader
 from flylog.io.records import FlyCloud, GridValues, LogMessage
 from flylog.ros2 import types
-from flylog.ros2.export import ExportSummary, _Bag, _Translation
+from flylog.ros2.export import Bag, ExportSummary, Translation
 from flylog.ros2.messages import ImageFormat
 from flylog.ros2.run_messages import (
     OCCUPANCY_GRID,
@@ -112,12 +111,7 @@ def export_run_ros2(
     the rig: from ``log``, else from the run when it is a closed-loop log, else from the log
     the run's metadata names when it is there; without one they are left out."""
     run, output = Path(run), Path(output)
-    if output.exists():
-        msg = f"{output} exists: the ROS 2 export writes a new directory, choose another OUT"
-        raise LogError(msg)
-    if not output.parent.is_dir():
-        msg = f"cannot write {output}: directory {output.parent} does not exist"
-        raise LogError(msg)
+    check_new_directory(output, "the ROS 2 export", "OUT")
     reader = open_log(run)
     present = reader.topics()
     if not any(t in present for t in RUN_TOPICS):
@@ -132,18 +126,14 @@ def export_run_ros2(
     rig, frame = _left_camera(log_reader if log_reader is not None else _rig_source(reader))
     setup = RunExport(_rule(reader), rig, frame, confidence, tf=log_reader is None)
     goal = reader.metadata().get(contract.REPLAY_METADATA, {}).get("goal")
-    staging = Path(tempfile.mkdtemp(prefix=f".{output.name}.", suffix=".part", dir=output.parent))
-    try:
-        bag = _Bag(staging / output.name)
+    with staged_directory(output) as directory:
+        bag = Bag(directory)
         if goal is not None:
             bag.writer.set_custom_data(GOAL_KEY, json.dumps(json.loads(goal)))
         with bag.writer:
             if log_reader is not None:
-                _Translation(bag, image_format).run(log_reader, truth, on_progress)
+                Translation(bag, image_format).run(log_reader, truth, on_progress)
             RunTranslation(bag, setup).run(reader, on_progress)
-        os.replace(staging / output.name, output)
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
     return ExportSummary(output, bag.count, bag.topics)
 
 
@@ -203,7 +193,7 @@ def _left_camera(reader: LogReader) -> tuple[StereoRig | None, str]:
 class RunTranslation:
     """The run's messages, one by one, as ROS 2 messages."""
 
-    def __init__(self, bag: _Bag, setup: RunExport) -> None:
+    def __init__(self, bag: Bag, setup: RunExport) -> None:
         self.bag = bag
         self.setup = setup
         self.build = RunBuilder(bag.store)

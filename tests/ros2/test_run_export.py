@@ -12,7 +12,7 @@ from rosbags.highlevel import AnyReader
 from rosbags.typesys import Stores, get_typestore
 
 from flylog.cli.main import cli
-from flylog.errors import LogError
+from flylog.errors import LogError, OutputError
 from flylog.fly.confidence import ConfidenceModel
 from flylog.fly.depth_image import sparse_depth
 from flylog.fly.snapshot_export import export_ply, snapshot_name
@@ -196,7 +196,7 @@ def test_refusals_leave_nothing_behind(run, tmp_path):
     with pytest.raises(LogError):
         rx.export_run_ros2(run, tmp_path / "b", log=other)
     (tmp_path / "c").mkdir()
-    with pytest.raises(LogError, match="exists"):
+    with pytest.raises(OutputError, match="exists"):
         rx.export_run_ros2(run, tmp_path / "c")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["c", "other.mcap"]
 
@@ -249,7 +249,7 @@ def test_at_picks_the_nearest_snapshot_and_the_cli_writes_it(run, tmp_path):
     start = open_log(run).start_ns
     nearest = min(times, key=lambda t: abs(t - start - 610_000_000))
     assert [p.name for p in (tmp_path / "one").iterdir()] == [snapshot_name(nearest)]
-    with pytest.raises(LogError, match="exists"):
+    with pytest.raises(OutputError, match="exists"):
         export_ply(run, tmp_path / "one")
     with pytest.raises(LogError, match="no /flies"):
         export_ply(CORRIDOR, tmp_path / "two")
