@@ -1,12 +1,12 @@
 """Tables printed to fit the terminal: as they are when they fit its width, else turned (a
 column per row, in as many tables as that takes), else one block per row (its fields one a
-line). A table
-cut to fit ("0.6…" in every cell) or wrapped letter by letter is never printed: at 80
-columns each of flylog's tables is read whole (tests/test_tables_fit.py)."""
+line). A table cut to fit ("0.6…" in every cell) or wrapped letter by letter is never
+printed: at 80 columns each of flylog's tables is read whole (tests/test_tables_fit.py)."""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 from rich.console import Console
 from rich.table import Table
@@ -34,18 +34,22 @@ def _fits(console: Console, table: Table) -> bool:
     return console.measure(table, options=unbounded).maximum <= console.width
 
 
-def fitted(
-    console: Console,
-    title: str,
-    header: Sequence[str],
-    rows: Sequence[Sequence[str]],
-    *,
-    right: Sequence[int] = (),
-    key_columns: int = 1,
-) -> list[Table]:
-    """The tables that show ``rows`` within ``console``'s width; ``right``: the columns
-    aligned right (numbers); ``key_columns``: the leading columns that name a row."""
-    wide = _table(title, header, rows, set(right))
+@dataclass(frozen=True)
+class _Text:
+    """A table's text: ``right``, the columns aligned right (numbers); ``key_columns``, the
+    leading columns that name a row."""
+
+    title: str
+    header: Sequence[str]
+    rows: Sequence[Sequence[str]]
+    right: frozenset[int]
+    key_columns: int
+
+
+def _fitted(console: Console, text: _Text) -> list[Table]:
+    """The tables that show ``text`` within ``console``'s width."""
+    title, header, rows, key_columns = text.title, text.header, text.rows, text.key_columns
+    wide = _table(title, header, rows, set(text.right))
     if _fits(console, wide):
         return [wide]
 
@@ -93,5 +97,8 @@ def print_fitted(
     right: Sequence[int] = (),
     key_columns: int = 1,
 ) -> None:
-    for table in fitted(console, title, header, rows, right=right, key_columns=key_columns):
+    """Print ``rows`` under ``header`` within ``console``'s width; ``right``: the columns
+    aligned right (numbers); ``key_columns``: the leading columns that name a row."""
+    text = _Text(title, header, rows, frozenset(right), key_columns)
+    for table in _fitted(console, text):
         console.print(table)
