@@ -27,11 +27,18 @@ def random_case(seed: int, channels: int, n: int = 300):
 
 
 def plain_fitness(
-    left, right, xyz, window: int, guard: float, unlike: Callable[[np.ndarray, np.ndarray], float]
+    left,
+    right,
+    xyz,
+    window: int,
+    guard: float,
+    unlike: Callable[[np.ndarray, np.ndarray], float],
+    *,
+    centred: bool = True,
 ) -> np.ndarray:
     """G / (guard·n·C + unlike(dl, dr)) fly by fly in floats, G the paper's Sobel norm,
-    dl and dr the zero-mean (per channel) left and right windows; invalid flies get
-    INVALID_FITNESS."""
+    dl and dr the left and right windows, zero-mean per channel when ``centred``; invalid
+    flies get INVALID_FITNESS."""
     left = left.reshape(left.shape[0], left.shape[1], -1).astype(np.float64)
     right = right.reshape(left.shape).astype(np.float64)
     h = window // 2
@@ -44,7 +51,7 @@ def plain_fitness(
             continue
         pl = left[r - h : r + h + 1, a - h : a + h + 1]
         pr = right[r - h : r + h + 1, b - h : b + h + 1]
-        dl, dr = pl - pl.mean(axis=(0, 1)), pr - pr.mean(axis=(0, 1))
+        dl, dr = (pl - pl.mean(axis=(0, 1)), pr - pr.mean(axis=(0, 1))) if centred else (pl, pr)
         c = pl[h - 1 : h + 2, h - 1 : h + 2]
         gx = (c[:, 2] - c[:, 0]) * np.array([1, 2, 1])[:, None]
         gy = (c[2] - c[0]) * np.array([1, 2, 1])[:, None]

@@ -6,32 +6,19 @@ import pytest
 
 from flylog.fly.config import Gradient, Similarity
 from flylog.fly.fitness import INVALID_FITNESS, fitness_numba, fitness_numpy
-from tests.fly.plain_patches import SMALL, random_case
+from tests.fly.plain_patches import SMALL, plain_fitness, random_case
 
 SAD = Similarity.SAD
 
 
 def _plain_sad_fitness(left, right, xyz, window, guard):
     """G / (guard·n·C + (Σ|L − R|)²/(n·C)) fly by fly in floats, G the paper's Sobel norm."""
-    left = left.reshape(left.shape[0], left.shape[1], -1).astype(np.float64)
-    right = right.reshape(left.shape).astype(np.float64)
-    h = window // 2
-    ul, ur, v, depth = SMALL.project(xyz)
-    out = np.full(len(xyz), INVALID_FITNESS)
-    for i in range(len(xyz)):
-        a, b, r = (int(np.floor(x + 0.5)) for x in (ul[i], ur[i], v[i]))
-        inside = h <= r < SMALL.height - h and all(h <= c < SMALL.width - h for c in (a, b))
-        if depth[i] <= 0 or not inside:
-            continue
-        pl = left[r - h : r + h + 1, a - h : a + h + 1]
-        pr = right[r - h : r + h + 1, b - h : b + h + 1]
-        c = pl[h - 1 : h + 2, h - 1 : h + 2]
-        gx = (c[:, 2] - c[:, 0]) * np.array([1, 2, 1])[:, None]
-        gy = (c[2] - c[0]) * np.array([1, 2, 1])[:, None]
-        g = np.sqrt(np.sqrt((gx.sum(axis=0) ** 2 + gy.sum(axis=0) ** 2).sum()))
+
+    def unlike(pl: np.ndarray, pr: np.ndarray) -> float:
         sad = np.abs(pl - pr).sum()
-        out[i] = g / (guard * pl.size + sad * sad / pl.size)
-    return out
+        return sad * sad / pl.size
+
+    return plain_fitness(left, right, xyz, window, guard, unlike, centred=False)
 
 
 @pytest.mark.parametrize("gradient", list(Gradient))
