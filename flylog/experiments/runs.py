@@ -132,7 +132,7 @@ def trajectories(log: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Times (s since the first true pose), true (N, 3) and odometric (N, 3) poses of a
     sensor log, the odometry interpolated at the true poses' times."""
     from flylog.metrics.trajectory import interpolate_poses
-    from flylog.metrics.truth import read_truth
+    from flylog.sources import read_truth
 
     truth = read_truth(log)
     t = truth.true.t_ns
@@ -142,7 +142,7 @@ def trajectories(log: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def true_poses_at(log: Path, t_ns: np.ndarray) -> np.ndarray:
     """(M, 3) true poses interpolated at the given log times."""
     from flylog.metrics.trajectory import interpolate_poses
-    from flylog.metrics.truth import read_truth
+    from flylog.sources import read_truth
 
     return interpolate_poses(read_truth(log).true, np.asarray(t_ns, dtype=np.int64))
 

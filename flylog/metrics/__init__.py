@@ -1,6 +1,6 @@
-"""flylog.metrics: scoring runs against the ground truth of their sensor logs.
+"""flylog.metrics: scoring runs against the ground truth of their sensor logs (read
+through :mod:`flylog.sources`).
 
-- ``truth``: scene, rig and true/odometric trajectories of a sensor log.
 - ``flies``: precision, recall, F-score, depth error of fly snapshots (definitions there),
   scored a batch of snapshots at once (``score_snapshots``, what ``score_run`` uses).
 - ``view``, ``depth``: the true views (the simulator's depth path in numpy, in batches).

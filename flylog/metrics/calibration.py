@@ -26,6 +26,7 @@ from flylog.io.reader import LogReader
 from flylog.metrics.config import MetricsConfig
 from flylog.metrics.provenance import config_digest
 from flylog.metrics.true_depth import views_at
+from flylog.sources import input_at
 
 BINS = 10  # equal-width confidence bins of the ECE and the reliability table
 _BATCH = 32  # snapshots whose true views render together
@@ -80,13 +81,11 @@ def default_engine_digest() -> str:
 
 def labelled_run(run: str | Path, log: str | Path, config: MetricsConfig) -> Labelled:
     """Every valid fly of ``run``'s snapshots that ``log``'s truth judges, labelled."""
-    from flylog.metrics.image_run import has_image_truth
-
     reader = open_log(run)
     if contract.FLIES not in reader.topics():
         msg = f"{run} has no {contract.FLIES} topic: nothing to calibrate on"
         raise LogError(msg)
-    if has_image_truth(log):
+    if input_at(log).image_truth():
         return _labelled_images(reader, Path(log), config)
     return _labelled_scene(reader, Path(log), config)
 
@@ -109,8 +108,8 @@ def _judged(
 
 def _labelled_scene(reader: LogReader, log: Path, config: MetricsConfig) -> Labelled:
     from flylog.metrics.trajectory import PoseInterpolator
-    from flylog.metrics.truth import read_truth
     from flylog.metrics.view import TrueViews
+    from flylog.sources import read_truth
 
     truth = read_truth(log)
     rule = _rule(reader, config)
@@ -150,7 +149,7 @@ def _labelled_scene(reader: LogReader, log: Path, config: MetricsConfig) -> Labe
 
 def _labelled_images(reader: LogReader, log: Path, config: MetricsConfig) -> Labelled:
     from flylog.metrics.image_truth import read_disparity_truth, truth_at
-    from flylog.replay.inputs import log_rig
+    from flylog.sources.inputs import log_rig
 
     sensor = open_log(log)
     dataset = sensor.metadata().get(contract.DATASET_METADATA, {})

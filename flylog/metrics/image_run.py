@@ -25,7 +25,6 @@ import numpy as np
 
 from flylog.baseline.config import SgbmConfig
 from flylog.config import from_mapping
-from flylog.errors import LogError
 from flylog.io import contract, open_log
 from flylog.metrics import tables
 from flylog.metrics.config import MetricsConfig
@@ -38,34 +37,6 @@ from flylog.metrics.image_truth import (
     score_dense,
     score_points,
 )
-from flylog.metrics.truth import SCENE_ATTACHMENT
-
-IMAGE_TRUTH = (contract.TRUTH_DISPARITY, contract.TRUTH_DEPTH)
-
-
-def has_image_truth(log: str | Path) -> bool:
-    """The log carries ground-truth disparity or depth images and no scene to render. An
-    imported dataset's log without them (a KITTI odometry or EuRoC sequence: true poses
-    only) cannot be scored: :class:`LogError` saying what it holds. A ROS 2 bag carries no
-    such images."""
-    from flylog.ros2 import is_bag
-
-    if is_bag(Path(log)):
-        return False
-    reader = open_log(log)
-    topics = reader.topics()
-    images = any(t in topics for t in IMAGE_TRUTH)
-    if not images and contract.DATASET_METADATA in reader.metadata():
-        held = ", ".join(f"{t} ({topics[t].count})" for t in sorted(topics))
-        msg = (
-            f"{log} is an imported dataset's log without {contract.TRUTH_DISPARITY} or "
-            f"{contract.TRUTH_DEPTH}; it holds {held}. flylog metrics scores imported logs "
-            "against ground-truth disparity or depth images only (the run's trajectory "
-            f"is scored on simulated logs, whose {contract.ODOM} and scene an imported log "
-            "lacks)"
-        )
-        raise LogError(msg)
-    return images and not any(a.name == SCENE_ATTACHMENT for a in reader.attachments())
 
 
 def _median(values: np.ndarray) -> float:
@@ -125,7 +96,7 @@ def _sgbm_dense(
 def score_image_run(run: str | Path, log: str | Path, config: MetricsConfig) -> Any:
     """Score ``run`` against ``log``'s ground-truth disparity (a MetricsResult)."""
     from flylog.metrics.score import MetricsResult, run_facts
-    from flylog.replay.inputs import log_rig
+    from flylog.sources.inputs import log_rig
 
     wall0 = time.perf_counter()
     reader, sensor = open_log(run), open_log(log)

@@ -47,9 +47,10 @@ from flylog.metrics.trajectory import (
     path_length,
     rpe_rmse,
 )
-from flylog.metrics.truth import LogTruth, read_truth
 from flylog.metrics.view import TrueViews
 from flylog.scene.load import distance_to_obstacles
+from flylog.sources import input_at
+from flylog.sources.truth import LogTruth
 
 # Odometry and truth are written at the same instants by the simulator; allow one 50 Hz
 # period of mismatch for logs from elsewhere (evo's --t_max_diff default is 10 ms).
@@ -202,13 +203,14 @@ def score_run(
     file): its scene, or its ground-truth disparity images (an imported dataset's log,
     :mod:`flylog.metrics.image_run`). ``on_progress(done, total)`` reports progress in
     seconds of log time."""
-    from flylog.metrics.image_run import has_image_truth, score_image_run
+    from flylog.metrics.image_run import score_image_run
 
     wall0 = time.perf_counter()
     reader = open_log(run)
     replayed = reader.metadata().get(contract.REPLAY_METADATA, {})
     fingerprint = check_run_log(run, log, replayed)  # before any work: the right log?
-    if has_image_truth(log):
+    source = input_at(log)
+    if source.image_truth():
         result: MetricsResult = score_image_run(run, log, config)
         return _with_confidence(result, run, log, reader)
     provenance = {
@@ -224,7 +226,7 @@ def score_run(
     try:
         ahead = [] if first is None else [first]
         stream = itertools.chain(ahead, () if messages is None else messages)
-        result = _scored(run, log, config, reader, stream, on_progress, wall0)
+        result = _scored(run, log, source.truth(), config, reader, stream, on_progress, wall0)
         result = dataclasses.replace(result, summary={**result.summary, **provenance})
         return _with_confidence(result, run, log, reader)
     finally:
@@ -235,13 +237,13 @@ def score_run(
 def _scored(
     run: str | Path,
     log: str | Path,
+    truth: LogTruth,
     config: MetricsConfig,
     reader: LogReader,
     messages: Iterator[LogMessage],
     on_progress: Callable[[float, float], None] | None,
     wall0: float,
 ) -> MetricsResult:
-    truth = read_truth(log)
     facts = run_facts(reader, config)
     present = reader.topics()
     true = truth.true

@@ -21,12 +21,9 @@ from flylog.io.writer import Compression, LogWriter
 from flylog.replay.clock import ClockConfig, VirtualClock
 from flylog.replay.config import ReplayConfig
 from flylog.replay.pipeline import PLANNER_TICK, SNAPSHOT_TICK, FlyPipeline
-from flylog.replay.source import (
-    PLANNER_OFF,
-    READ_AHEAD_MESSAGES,
-    open_source,
-)
 from flylog.ros2.config import BagOptions
+from flylog.sources import input_at
+from flylog.sources.stream import PLANNER_OFF, READ_AHEAD_MESSAGES
 
 # The run log is written with zstd chunks: its bulk is float32 potentials and fly clouds,
 # which zstd shrinks to 0.71 (lz4: 0.90) of their size; on the corridor's 6 s at 640×480
@@ -143,7 +140,7 @@ def replay(
         [Role(Path(log), "the sensor log", "log")],
         [Role(Path(output), "the run", "output"), Role(table, "the step table", "output")],
     )
-    source = open_source(Path(log), goal=goal, bag=bag)
+    source = input_at(log).replay_source(goal=goal, bag=bag)
     inputs = source.inputs
     fingerprint = log_fingerprint(log)
     duration = (inputs.end_ns - inputs.start_ns) / 1e9

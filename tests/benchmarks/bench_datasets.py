@@ -35,9 +35,9 @@ from flylog.metrics.config import MetricsConfig
 from flylog.metrics.image_truth import read_disparity_truth, score_pixels, truth_at
 from flylog.metrics.score import run_facts, score_run
 from flylog.replay.config import ReplayConfig, Stereo
-from flylog.replay.inputs import log_rig
 from flylog.replay.run import replay
 from flylog.sensors import StereoPair
+from flylog.sources.inputs import log_rig
 from tests.datasets.layouts import (
     write_euroc,
     write_kitti_multiview,

@@ -40,9 +40,7 @@ from flylog.planner.config import PlannerConfig
 from flylog.planner.grid import GridGeometry
 from flylog.planner.map import ObstacleMap
 from flylog.planner.planner import HarmonicPlanner
-from flylog.replay import run as replay_run
 from flylog.replay.config import ReplayConfig
-from flylog.replay.inputs import SENSOR_TOPICS
 from flylog.replay.obstacle_cache import Evidence
 from flylog.replay.pipeline import FlyPipeline
 from flylog.replay.planner_jobs import PlannerJobs
@@ -51,6 +49,8 @@ from flylog.replay.worker import OutputQueue
 from flylog.scene.load import load_scene
 from flylog.sensors import SonarConfig, SonarReading
 from flylog.sim.run import SimulationOptions, simulate
+from flylog.sources import Input
+from flylog.sources.inputs import SENSOR_TOPICS
 from tests.planner.references import cone_cells_numpy, dense_cells_numpy
 
 SCENES = Path(__file__).resolve().parents[2] / "fixtures" / "scenes"
@@ -206,7 +206,7 @@ if sys.argv[2] == "tuned":
     from flylog.process import keep_large_blocks
     assert keep_large_blocks()
 from flylog.io import open_log
-from flylog.replay.inputs import SENSOR_TOPICS
+from flylog.sources.inputs import SENSOR_TOPICS
 from flylog.replay.run import READ_AHEAD_MESSAGES
 before = resource.getrusage(resource.RUSAGE_SELF)
 for _ in open_log(sys.argv[1]).messages(SENSOR_TOPICS, read_ahead=READ_AHEAD_MESSAGES):
@@ -581,14 +581,14 @@ class _Accounts:
 
     def waited_for_records(self, stack: contextlib.ExitStack) -> None:
         """Time the engine's thread waits for the next record of the reading thread."""
-        opened = replay_run.open_source
+        opened = Input.replay_source
 
-        def source(*args: Any, **kwargs: Any) -> Any:
-            found = opened(*args, **kwargs)
+        def source(opening: Input, **kwargs: Any) -> Any:
+            found = opened(opening, **kwargs)
             found.records = self._timed_records(found.records)
             return found
 
-        stack.enter_context(mock.patch.object(replay_run, "open_source", source))
+        stack.enter_context(mock.patch.object(Input, "replay_source", source))
 
     def _timed_records(self, records: Iterator[Any]) -> Iterator[Any]:
         while True:

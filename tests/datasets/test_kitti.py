@@ -15,9 +15,9 @@ from flylog.io import contract
 from flylog.io.reader import open_log
 from flylog.metrics.image_truth import read_disparity_truth
 from flylog.metrics.trajectory import PoseInterpolator
-from flylog.metrics.truth import read_truth
 from flylog.metrics.view import TrueViews
-from flylog.replay.inputs import log_rig
+from flylog.sources import read_truth
+from flylog.sources.inputs import log_rig
 from tests.datasets.layouts import write_kitti_multiview, write_kitti_sequence, write_kitti_stereo
 
 CORRIDOR = Path(__file__).parents[2] / "fixtures" / "logs" / "corridor.mcap"

@@ -9,8 +9,8 @@ from flylog.cli.metrics import metrics as metrics_command
 from flylog.errors import LogError
 from flylog.geometry import Pose2D
 from flylog.metrics import tables
-from flylog.metrics.trajectory import trajectory
 from flylog.metrics.tum import export_tum, tum_text
+from flylog.sources.trajectory import trajectory
 
 from .helpers import surface_flies, write_run
 

@@ -9,14 +9,14 @@ import numpy as np
 import pytest
 
 import flylog.replay.run as replay_run
-import flylog.replay.source as replay_source
+import flylog.sources.stream as replay_source
 from flylog.config import from_mapping
 from flylog.io.reader import open_log
 from flylog.metrics.score import score_run
 from flylog.replay.config import ReplayConfig
-from flylog.replay.inputs import replay_inputs
 from flylog.scene import load_scene
 from flylog.sim.run import SimulationOptions, effective_scene, simulate
+from flylog.sources.inputs import replay_inputs
 
 ROOT = Path(__file__).resolve().parents[2]
 CORRIDOR_SCENE = ROOT / "fixtures" / "scenes" / "corridor.toml"

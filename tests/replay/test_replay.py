@@ -199,9 +199,9 @@ def _pipeline_outputs(
     clock never saying that no tick can read it)."""
     from flylog.io.pairing import pair_stereo
     from flylog.replay.clock import VirtualClock
-    from flylog.replay.inputs import SENSOR_TOPICS, replay_inputs
     from flylog.replay.pipeline import FlyPipeline
     from flylog.replay.run import clock_config
+    from flylog.sources.inputs import SENSOR_TOPICS, replay_inputs
 
     class CopyAtPublish(FlyPipeline):
         def publish(self, t_ns: int) -> None:
@@ -282,8 +282,8 @@ def test_copying_the_published_population_only_when_read_changes_no_output(overr
 def test_planner_worker_writes_every_output_on_its_own_nicer_thread():
     from flylog.geometry import Pose2D
     from flylog.io.readahead import HELPER_NICENESS
-    from flylog.replay.inputs import replay_inputs
     from flylog.replay.pipeline import PLANNER_TICK, SNAPSHOT_TICK, FlyPipeline
+    from flylog.sources.inputs import replay_inputs
 
     def nice() -> int:
         return os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
@@ -317,8 +317,8 @@ def test_planner_worker_writes_every_output_on_its_own_nicer_thread():
 @pytest.mark.parametrize(("warm", "thread"), [(0, False), (700, False), (5000, True)])
 def test_the_pipeline_starts_from_a_relaxed_obstacle_free_field(warm, thread):
     from flylog.geometry import Pose2D
-    from flylog.replay.inputs import replay_inputs
     from flylog.replay.pipeline import FlyPipeline
+    from flylog.sources.inputs import replay_inputs
 
     rig = replay_inputs(open_log(CORRIDOR), goal=None).rig
     config = replace_dotted(SMALL, {"planner.warm_start_sweeps": warm})

@@ -164,7 +164,7 @@ def test_export_refuses_an_existing_output_and_leaves_nothing_on_failure(tmp_pat
 
 
 def test_metrics_against_a_bag_without_ground_truth_says_what_is_missing(tmp_path):
-    from flylog.ros2.truth import bag_truth
+    from flylog.sources.bag import bag_truth
 
     with pytest.raises(LogError, match=r"lacks /truth/odom \(the true pose\), custom_data "):
         bag_truth(make_bag(tmp_path / "bag"))

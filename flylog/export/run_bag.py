@@ -193,7 +193,7 @@ def _left_camera(reader: LogReader) -> tuple[StereoRig | None, str]:
     present = reader.topics()
     if not all(t in present for t in contract.CALIBRATION_TOPICS.values()):
         return None, frame
-    from flylog.replay.inputs import log_rig
+    from flylog.sources.inputs import log_rig
 
     dataset = reader.metadata().get(contract.DATASET_METADATA, {})
     mounted = dataset.get("mount") != contract.MOUNT_NONE
