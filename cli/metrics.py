@@ -127,7 +127,7 @@ def metrics(
     from flylog.config import from_mapping, read_toml, replace_dotted
     from flylog.io.collisions import Role, check_outputs
     from flylog.metrics.config import MetricsConfig
-    from flylog.metrics.score import score_run, write_metrics, write_reliability
+    from flylog.metrics.score import score_run
     from flylog.metrics.tables import (
         check_output_name,
         default_output,
@@ -135,6 +135,7 @@ def metrics(
         reliability_path,
         summary_path,
     )
+    from flylog.metrics.write import write_metrics, write_reliability
 
     output = default_output(run) if output is None else output
     check_output_name(output)  # before the scoring, which takes a while

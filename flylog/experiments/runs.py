@@ -100,7 +100,7 @@ def fly_snapshots(run: Path) -> tuple[np.ndarray, list[np.ndarray]]:
     by the run's own obstacle rule (its metadata)."""
     from flylog.io import contract, open_log
     from flylog.metrics.config import MetricsConfig
-    from flylog.metrics.score import run_facts
+    from flylog.metrics.result import run_facts
 
     reader = open_log(run)
     rule = run_facts(reader, MetricsConfig()).rule

@@ -149,7 +149,7 @@ def export_run_ros2(
 
 def _rule(reader: LogReader) -> ObstacleFlies:
     from flylog.metrics.config import MetricsConfig
-    from flylog.metrics.score import run_facts
+    from flylog.metrics.result import run_facts
 
     return run_facts(reader, MetricsConfig()).rule
 

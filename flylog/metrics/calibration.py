@@ -25,6 +25,7 @@ from flylog.io import contract, open_log
 from flylog.io.reader import LogReader
 from flylog.metrics.config import MetricsConfig
 from flylog.metrics.provenance import config_digest
+from flylog.metrics.result import run_facts
 from flylog.metrics.true_depth import views_at
 from flylog.sources import input_at
 
@@ -91,8 +92,6 @@ def labelled_run(run: str | Path, log: str | Path, config: MetricsConfig) -> Lab
 
 
 def _rule(reader: LogReader, config: MetricsConfig) -> Any:
-    from flylog.metrics.score import run_facts
-
     return run_facts(reader, config).rule
 
 

@@ -37,6 +37,8 @@ from flylog.metrics.image_truth import (
     score_dense,
     score_points,
 )
+from flylog.metrics.result import MetricsResult, run_facts
+from flylog.sources.inputs import log_rig
 
 
 def _median(values: np.ndarray) -> float:
@@ -93,11 +95,8 @@ def _sgbm_dense(
     }
 
 
-def score_image_run(run: str | Path, log: str | Path, config: MetricsConfig) -> Any:
+def score_image_run(run: str | Path, log: str | Path, config: MetricsConfig) -> MetricsResult:
     """Score ``run`` against ``log``'s ground-truth disparity (a MetricsResult)."""
-    from flylog.metrics.score import MetricsResult, run_facts
-    from flylog.sources.inputs import log_rig
-
     wall0 = time.perf_counter()
     reader, sensor = open_log(run), open_log(log)
     facts = run_facts(reader, config)

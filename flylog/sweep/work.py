@@ -98,7 +98,8 @@ def simulate_input(task: SimulationTask) -> str | None:
 
 
 def _metrics_row(cell: Cell, log: Path) -> dict[str, Any]:
-    from flylog.metrics.score import score_run, write_metrics
+    from flylog.metrics.score import score_run
+    from flylog.metrics.write import write_metrics
 
     result = score_run(cell.run, log, cell.metrics)
     write_metrics(result, cell.metrics_output)

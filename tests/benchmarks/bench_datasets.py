@@ -33,7 +33,8 @@ from flylog.io import contract
 from flylog.io.reader import open_log
 from flylog.metrics.config import MetricsConfig
 from flylog.metrics.image_truth import read_disparity_truth, score_pixels, truth_at
-from flylog.metrics.score import run_facts, score_run
+from flylog.metrics.result import run_facts
+from flylog.metrics.score import score_run
 from flylog.replay.config import ReplayConfig, Stereo
 from flylog.replay.run import replay
 from flylog.sensors import StereoPair

@@ -34,7 +34,8 @@ import numpy as np
 from flylog.geometry import Pose2D
 from flylog.io import contract, open_log
 from flylog.metrics.config import MetricsConfig
-from flylog.metrics.score import run_facts, score_run
+from flylog.metrics.result import run_facts
+from flylog.metrics.score import score_run
 from flylog.metrics.trajectory import PoseInterpolator
 from flylog.metrics.view import TrueViews, block_rig
 from flylog.replay.config import ReplayConfig

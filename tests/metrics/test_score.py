@@ -11,7 +11,8 @@ from flylog.io import LogWriter, contract, encode
 from flylog.io.contract import CommandStatus
 from flylog.metrics import tables
 from flylog.metrics.config import MetricsConfig
-from flylog.metrics.score import score_run, write_metrics
+from flylog.metrics.score import score_run
+from flylog.metrics.write import write_metrics
 
 from .helpers import surface_flies, write_run
 

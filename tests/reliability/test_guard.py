@@ -19,7 +19,8 @@ import pytest
 from flylog.cli.main import _COMMANDS
 from flylog.config import replace_dotted
 from flylog.geometry import Pose2D, StereoRig
-from flylog.metrics.score import score_run, write_metrics
+from flylog.metrics.score import score_run
+from flylog.metrics.write import write_metrics
 from flylog.replay.config import ReplayConfig
 from flylog.replay.run import replay
 from flylog.ros2.export import export_ros2

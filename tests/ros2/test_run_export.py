@@ -20,7 +20,7 @@ from flylog.fly.snapshot_export import export_ply, snapshot_name
 from flylog.io import contract
 from flylog.io.reader import open_log
 from flylog.metrics.config import MetricsConfig
-from flylog.metrics.score import run_facts
+from flylog.metrics.result import run_facts
 from flylog.replay.run import replay
 from flylog.ros2.export import export_ros2
 from flylog.sources.inputs import log_rig
