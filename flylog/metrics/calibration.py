@@ -23,6 +23,8 @@ from flylog.errors import LogError
 from flylog.fly import confidence as cf
 from flylog.io import contract, open_log
 from flylog.io.reader import LogReader
+from flylog.io.tables import table_row
+from flylog.metrics import tables
 from flylog.metrics.config import MetricsConfig
 from flylog.metrics.provenance import config_digest
 from flylog.metrics.result import run_facts
@@ -188,15 +190,14 @@ def reliability(p: np.ndarray, y: np.ndarray, bins: int = BINS) -> list[dict[str
     rows = []
     for b in range(bins):
         n = int(count[b])
-        rows.append(
-            {
-                "bin_low": b / bins,
-                "bin_high": (b + 1) / bins,
-                "flies": n,
-                "mean_confidence": sum_p[b] / n if n else math.nan,
-                "on_surface_share": sum_y[b] / n if n else math.nan,
-            }
-        )
+        values = {
+            "bin_low": b / bins,
+            "bin_high": (b + 1) / bins,
+            "flies": n,
+            "mean_confidence": sum_p[b] / n if n else math.nan,
+            "on_surface_share": sum_y[b] / n if n else math.nan,
+        }
+        rows.append(table_row(tables.RELIABILITY_COLUMNS, values))
     return rows
 
 

@@ -26,6 +26,7 @@ import numpy as np
 from flylog.baseline.config import SgbmConfig
 from flylog.config import from_mapping
 from flylog.io import contract, open_log
+from flylog.io.tables import table_row
 from flylog.metrics import tables
 from flylog.metrics.config import MetricsConfig
 from flylog.metrics.flies import f_score
@@ -60,8 +61,10 @@ def error_columns(score: ImageScore) -> dict[str, float]:
     }
 
 
-def _empty(columns: tuple[tables.Column, ...]) -> dict[str, Any]:
-    return {c.name: None for c in columns}
+def _row(columns: tuple[tables.Column, ...], **values: Any) -> dict[str, Any]:
+    """A row of ``columns``: ``values``, nulls elsewhere (ValueError for a value of no
+    column)."""
+    return table_row(columns, {**{c.name: None for c in columns}, **values})
 
 
 def _sgbm_dense(
@@ -121,8 +124,8 @@ def score_image_run(run: str | Path, log: str | Path, config: MetricsConfig) -> 
                 continue
             score = score_points(cloud.xyz[keep], truth.images[k], rig, config)
             last[k] = score
-            row = _empty(tables.SNAPSHOT_COLUMNS)
-            row.update(
+            row = _row(
+                tables.SNAPSHOT_COLUMNS,
                 stamp_ns=m.log_time_ns,
                 t_s=(m.log_time_ns - t0) / 1e9,
                 flies=len(cloud.xyz),
@@ -156,8 +159,8 @@ def score_image_run(run: str | Path, log: str | Path, config: MetricsConfig) -> 
         disparity_errors=np.concatenate([s.disparity_errors for s in scores] or [np.empty(0)]),
         depth_errors=np.concatenate([s.depth_errors for s in scores] or [np.empty(0)]),
     )
-    summary = _empty(tables.SUMMARY_COLUMNS)
-    summary.update(
+    summary = _row(
+        tables.SUMMARY_COLUMNS,
         run=str(run),
         log=str(log),
         snapshots=len(rows),

@@ -27,6 +27,8 @@ from flylog.fly.obstacles import ObstacleFlies
 from flylog.io import contract
 from flylog.io.reader import LogReader
 from flylog.io.records import LogMessage
+from flylog.io.tables import table_row
+from flylog.metrics import tables
 from flylog.metrics.config import MetricsConfig
 from flylog.metrics.flies import f_score, ratio, score_snapshots
 from flylog.metrics.obstacles import ObstacleDetection as Detections
@@ -73,7 +75,7 @@ class _Snapshot(NamedTuple):
 
 
 def _snapshot_row(t_ns: int, t0_ns: int, pose: np.ndarray, score: Any) -> dict[str, Any]:
-    return {
+    values = {
         "stamp_ns": int(t_ns),
         "t_s": (t_ns - t0_ns) / 1e9,
         "true_x_m": float(pose[0]),
@@ -97,6 +99,7 @@ def _snapshot_row(t_ns: int, t0_ns: int, pose: np.ndarray, score: Any) -> dict[s
         "nearest_detected_m": score.nearest_detected,
         **dict.fromkeys(_IMAGE_COLUMNS, math.nan),
     }
+    return table_row(tables.SNAPSHOT_COLUMNS, values)
 
 
 def _robot_summary(truth: LogTruth, config: MetricsConfig) -> dict[str, Any]:
@@ -228,15 +231,18 @@ class _SceneScoring:
 
     def obstacle_rows(self, det: Detections) -> list[dict[str, Any]]:
         return [
-            {
-                "obstacle": k,
-                "kind": ob.kind.value,
-                "first_visible_s": float(det.first_visible[k]),
-                "first_detected_s": float(det.first_detected[k]),
-                "latency_s": float(det.latency[k]),
-                "max_visible_px": int(det.max_visible_pixels[k]),
-                "max_flies_on": int(det.max_flies_on[k]),
-            }
+            table_row(
+                tables.OBSTACLE_COLUMNS,
+                {
+                    "obstacle": k,
+                    "kind": ob.kind.value,
+                    "first_visible_s": float(det.first_visible[k]),
+                    "first_detected_s": float(det.first_detected[k]),
+                    "latency_s": float(det.latency[k]),
+                    "max_visible_px": int(det.max_visible_pixels[k]),
+                    "max_flies_on": int(det.max_flies_on[k]),
+                },
+            )
             for k, ob in enumerate(self.truth.scene.obstacles)
         ]
 

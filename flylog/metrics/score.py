@@ -12,11 +12,14 @@ import math
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 from flylog.config import to_mapping
 from flylog.fly import confidence
 from flylog.io import contract, open_log
 from flylog.io.reader import LogReader
+from flylog.io.tables import table_row
+from flylog.metrics import tables
 from flylog.metrics.calibration import score_confidence
 from flylog.metrics.config import MetricsConfig
 from flylog.metrics.image_run import score_image_run
@@ -80,8 +83,14 @@ def _with_confidence(
     table."""
     model = confidence.load()
     if model is None or contract.FLIES not in reader.topics():
-        summary = {**result.summary, "confidence_ece": math.nan, "confidence_flies": 0}
-        return dataclasses.replace(result, summary=summary)
+        confidence_columns = {"confidence_ece": math.nan, "confidence_flies": 0}
+        return dataclasses.replace(result, summary=_summary(result, confidence_columns))
     score = score_confidence(run, log, result.config, model)
-    summary = {**result.summary, "confidence_ece": score.ece, "confidence_flies": score.flies}
+    confidence_columns = {"confidence_ece": score.ece, "confidence_flies": score.flies}
+    summary = _summary(result, confidence_columns)
     return dataclasses.replace(result, summary=summary, reliability=score.table)
+
+
+def _summary(result: MetricsResult, confidence_columns: dict[str, Any]) -> dict[str, Any]:
+    """The summary row, complete: every column of SUMMARY_COLUMNS and no other."""
+    return table_row(tables.SUMMARY_COLUMNS, {**result.summary, **confidence_columns})
