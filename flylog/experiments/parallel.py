@@ -10,6 +10,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from flylog.experiments import experiment_plan
 from flylog.experiments.cells import ExperimentPlan, finish_in_order, run_cell
 from flylog.experiments.common import ExperimentOptions, ExperimentResult, Progress
 
@@ -32,6 +33,18 @@ def run_plans_serially(
                 on_progress(float(done), float(total))
         out.append(finish_in_order(plan, results))
     return out
+
+
+def run_experiment(
+    name: str,
+    out_dir: Path,
+    options: ExperimentOptions,
+    *,
+    on_progress: Progress | None = None,
+) -> ExperimentResult:
+    """Run the experiment ``name`` into ``out_dir/name/``, its cells one after the other in
+    this process; ``on_progress(cells done, cells)``."""
+    return run_plans_serially([experiment_plan(name, out_dir, options)], on_progress)[0]
 
 
 def run_plans(
@@ -85,7 +98,5 @@ def run_experiments(
     """Run the experiments ``names`` into ``out_dir/NAME/`` on ``workers`` processes; their
     results in the order of ``names``. ``on_progress(done, total)`` in expected work (log
     seconds, :func:`run_plans`)."""
-    from flylog.experiments import experiment_plan
-
     plans = [experiment_plan(name, Path(out_dir), options) for name in names]
     return run_plans(plans, workers=workers, on_progress=on_progress)

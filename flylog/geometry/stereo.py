@@ -185,10 +185,25 @@ class StereoRig:
 
     def constants(self) -> np.ndarray:
         """The rig as the float64 array the compiled kernels take
-        (layout: :mod:`flylog.geometry.kernels`)."""
-        from flylog.geometry.kernels import rig_array
-
-        return rig_array(self)
+        (layout: :mod:`flylog.geometry.kernels`, which this module leaves unimported: it
+        imports numba)."""
+        m, left, right = self._frame()
+        level = 1.0 if self.is_level else 0.0
+        return np.array(
+            [
+                self.focal_px,
+                self.cx,
+                self.cy,
+                self.cx_right,
+                *left,
+                *right,
+                *m[0],
+                *m[1],
+                *m[2],
+                level,
+            ],
+            dtype=np.float64,
+        )
 
     def _frame(self) -> tuple[list[list[float]], Point, Point]:
         """(base_link → optical rotation rows, left centre, right centre) as Python floats,

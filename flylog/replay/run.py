@@ -10,7 +10,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from flylog.budget import DEFAULT_LIMITS, Limits, check_sampling_rates, replay_estimate
+from flylog.budget import DEFAULT_LIMITS, Limits
 from flylog.config import to_mapping
 from flylog.io import contract
 from flylog.io.atomic import Batch
@@ -20,6 +20,7 @@ from flylog.io.tables import TableWriter
 from flylog.io.writer import Compression, LogWriter
 from flylog.replay.clock import ClockConfig, VirtualClock
 from flylog.replay.config import ReplayConfig
+from flylog.replay.estimate import check_sampling_rates, replay_estimate
 from flylog.replay.pipeline import PLANNER_TICK, SNAPSHOT_TICK, FlyPipeline
 from flylog.replay.planner_jobs import STEP_COLUMNS
 from flylog.ros2.config import BagOptions

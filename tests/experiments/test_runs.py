@@ -8,8 +8,9 @@ import pytest
 from click.testing import CliRunner
 
 from flylog.cli.main import cli
-from flylog.experiments import EXPERIMENTS, run_experiment
+from flylog.experiments import EXPERIMENTS
 from flylog.experiments.common import ExperimentOptions, Spread
+from flylog.experiments.parallel import run_experiment
 
 TINY = ExperimentOptions(seeds=1, resolution=(96, 72), duration=1.0, flies=300)
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"

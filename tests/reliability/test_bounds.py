@@ -7,10 +7,11 @@ import dataclasses
 
 import pytest
 
-from flylog.budget import Limits, replay_estimate, simulation_estimate
+from flylog.budget import Limits, simulation_estimate
 from flylog.errors import ConfigError, LimitError
 from flylog.geometry import StereoRig
 from flylog.replay.config import ReplayConfig
+from flylog.replay.estimate import replay_estimate
 from flylog.scene.load import parse_scene
 from tests.reliability.conftest import error_lines, run
 
