@@ -117,9 +117,12 @@ def export(
 
         with progress_bar(f"export {source.name}", unit="s") as update:
             summary = export_ros2(
-                source, ros2_dir, image_format=ImageFormat(image_format), truth=truth,
+                source,
+                ros2_dir,
+                image_format=ImageFormat(image_format),
+                truth=truth,
                 on_progress=update,
-            )  # fmt: skip
+            )
         stdout.print(f"{summary.output}: {summary.messages} messages on {summary.topics} topics")
         return
     from flylog.metrics.tum import export_tum

@@ -102,12 +102,26 @@ def _fmt(value: Any) -> str:
     default=None,
     help="TOML file of metrics thresholds (fields of flylog.metrics.config.MetricsConfig).",
 )
-@click.option("--tau", type=Finite(0.0, 1.0), default=None, help="Relative depth "
-              "tolerance of 'on a surface'. [default: 0.05]")  # fmt: skip
-@click.option("--goal-tolerance", type=Finite(min=0.0), default=None, metavar="M",
-              help="Distance at which the goal counts as reached. [default: 0.2 m]")  # fmt: skip
-@click.option("--rpe-delta", type=Finite(min=0.001), default=None, metavar="S",
-              help="Time step of the relative pose error. [default: 1 s]")  # fmt: skip
+@click.option(
+    "--tau",
+    type=Finite(0.0, 1.0),
+    default=None,
+    help="Relative depth tolerance of 'on a surface'. [default: 0.05]",
+)
+@click.option(
+    "--goal-tolerance",
+    type=Finite(min=0.0),
+    default=None,
+    metavar="M",
+    help="Distance at which the goal counts as reached. [default: 0.2 m]",
+)
+@click.option(
+    "--rpe-delta",
+    type=Finite(min=0.001),
+    default=None,
+    metavar="S",
+    help="Time step of the relative pose error. [default: 1 s]",
+)
 @reports_errors
 def metrics(
     run: Path,

@@ -89,14 +89,18 @@ class StereoRig:
         unit="px",
     )
     doffs: float = param(
-        0.0, help="right principal point's x minus the left's (disparity = f·B/Z − doffs)",
+        0.0,
+        help="right principal point's x minus the left's (disparity = f·B/Z − doffs)",
         unit="px",
-    )  # fmt: skip
+    )
     tilt: float = param(0.0, help="downward pitch of the optical axes", unit="deg", min=-60, max=60)
     roll: float = param(
-        0.0, help="roll about the optical axis (positive lowers the right camera)", unit="deg",
-        min=-45, max=45,
-    )  # fmt: skip
+        0.0,
+        help="roll about the optical axis (positive lowers the right camera)",
+        unit="deg",
+        min=-45,
+        max=45,
+    )
     pan: float = param(0.0, help="leftward yaw of the optical axes", unit="deg", min=-90, max=90)
     frame_rate: float = param(
         15.0, help="stereo pairs per second", unit="Hz", min=0.1, max=MAX_FRAME_RATE

@@ -68,9 +68,13 @@ def _row(columns: tuple[tables.Column, ...], **values: Any) -> dict[str, Any]:
 
 
 def _sgbm_dense(
-    log: Path, config: SgbmConfig, stamps: np.ndarray, truth: list[np.ndarray], rig: Any,
+    log: Path,
+    config: SgbmConfig,
+    stamps: np.ndarray,
+    truth: list[np.ndarray],
+    rig: Any,
     metrics: MetricsConfig,
-) -> dict[str, float]:  # fmt: skip
+) -> dict[str, float]:
     """The dense map's columns: SGBM on each ground-truth frame, pooled over them."""
     from flylog.baseline.sgbm import disparity_px, grey_levels, stereo_matcher
 

@@ -227,16 +227,23 @@ class PlannerJobs:
         map, now."""
         ox, oy = self.planner.origin
         grid = encode.grid(
-            self.planner.potential, Pose2D(ox, oy, 0.0), self.planner.cell_size, t_ns,
+            self.planner.potential,
+            Pose2D(ox, oy, 0.0),
+            self.planner.cell_size,
+            t_ns,
             contract.ODOM_FRAME,
-        )  # fmt: skip
+        )
         path = encode.poses_in_frame(
             path_poses(self.planner.path(robot_pose)), t_ns, contract.ODOM_FRAME
         )
         occupancy = encode.occupancy_grid(
-            self.planner.detected_mask, self.planner.obstacle_mask, Pose2D(ox, oy, 0.0),
-            self.planner.cell_size, t_ns, contract.ODOM_FRAME,
-        )  # fmt: skip
+            self.planner.detected_mask,
+            self.planner.obstacle_mask,
+            Pose2D(ox, oy, 0.0),
+            self.planner.cell_size,
+            t_ns,
+            contract.ODOM_FRAME,
+        )
         return [
             (contract.PLANNER_POTENTIAL, t_ns, grid),
             (contract.PLANNER_PATH, t_ns, path),

@@ -156,18 +156,24 @@ class _Translation:
         self, reader: Any, truth: bool, on_progress: Callable[[float, float], None] | None
     ) -> None:
         topics = [
-            *contract.IMAGE_TOPICS.values(), *contract.CALIBRATION_TOPICS.values(),
-            contract.SONAR, contract.ODOM, contract.TF, *([contract.TRUTH_POSE] if truth else []),
-        ]  # fmt: skip
+            *contract.IMAGE_TOPICS.values(),
+            *contract.CALIBRATION_TOPICS.values(),
+            contract.SONAR,
+            contract.ODOM,
+            contract.TF,
+            *([contract.TRUTH_POSE] if truth else []),
+        ]
         present = set(reader.topics())
         if not {contract.LEFT_IMAGE, contract.RIGHT_IMAGE} <= present:
             msg = f"{reader.path} has no {contract.LEFT_IMAGE} and {contract.RIGHT_IMAGE}"
             raise LogError(msg)
         t0, span = reader.start_ns, max(1, reader.end_ns - reader.start_ns)
         handlers = {
-            contract.SONAR: self._sonar, contract.ODOM: self._odom, contract.TF: self._tf,
+            contract.SONAR: self._sonar,
+            contract.ODOM: self._odom,
+            contract.TF: self._tf,
             contract.TRUTH_POSE: self._truth,
-        }  # fmt: skip
+        }
         for i, raw in enumerate(reader.raw_messages([t for t in topics if t in present])):
             t, topic = raw.message.log_time, raw.channel.topic
             try:
@@ -193,19 +199,28 @@ class _Translation:
 
     def _calibration(self, side: str, t: int, msg: Any) -> None:
         message = self.bag.build.camera_info(
-            stamp_ns(msg.timestamp), msg.frame_id, (msg.width, msg.height), list(msg.K),
-            list(msg.P), d=list(msg.D) or [0.0] * 5, r=list(msg.R) or np.eye(3).ravel().tolist(),
+            stamp_ns(msg.timestamp),
+            msg.frame_id,
+            (msg.width, msg.height),
+            list(msg.K),
+            list(msg.P),
+            d=list(msg.D) or [0.0] * 5,
+            r=list(msg.R) or np.eye(3).ravel().tolist(),
             model=msg.distortion_model or "plumb_bob",
-        )  # fmt: skip
+        )
         self.bag.write(info_topic(side), t, types.CAMERA_INFO, message)
 
     def _sonar(self, t: int, data: dict[str, Any]) -> None:
         stamp = stamp_ns(data["timestamp"])
         for i, value in enumerate(data["ranges"]):
             message = self.bag.build.range(
-                stamp, contract.sonar_frame(i), float("nan") if value is None else value,
-                data["cone_angle"], data.get("min_range", 0.0), data["max_range"],
-            )  # fmt: skip
+                stamp,
+                contract.sonar_frame(i),
+                float("nan") if value is None else value,
+                data["cone_angle"],
+                data.get("min_range", 0.0),
+                data["max_range"],
+            )
             self.bag.write(range_topic(i), t, types.RANGE, message)
 
     def _pose_odometry(self, topic: str, t: int, msg: Any) -> None:

@@ -150,9 +150,12 @@ def _run_cell(cell: Cell) -> dict[str, Any]:
             log = cell.log
         summary = _metrics_row(cell, log)
     except Exception as exc:
-        return {"status": STATUS_FAILED, "error": error_message(exc),
-                "cell_wall_s": time.perf_counter() - t0,
-                "cell_cpu_s": time.process_time() - cpu0}  # fmt: skip
+        return {
+            "status": STATUS_FAILED,
+            "error": error_message(exc),
+            "cell_wall_s": time.perf_counter() - t0,
+            "cell_cpu_s": time.process_time() - cpu0,
+        }
     timing = {"cell_wall_s": time.perf_counter() - t0, "cell_cpu_s": time.process_time() - cpu0}
     return {**summary, "status": STATUS_OK, "error": None, **timing}
 

@@ -34,8 +34,16 @@ CONFIG = dataclasses.replace(
     engine=dataclasses.replace(ReplayConfig().engine, flies=600),
     generations_per_frame=20,
 )
-COLUMNS = ("scored_points", "precision", "recall", "coverage", "bad1", "bad2",
-           "disparity_error_median_px", "median_depth_error")  # fmt: skip
+COLUMNS = (
+    "scored_points",
+    "precision",
+    "recall",
+    "coverage",
+    "bad1",
+    "bad2",
+    "disparity_error_median_px",
+    "median_depth_error",
+)
 
 
 def _scores(log, run):

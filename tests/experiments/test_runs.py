@@ -93,8 +93,20 @@ def test_sonar_counts_the_post(results):
 
 
 def test_cli_runs_an_experiment_and_prints_its_table(tmp_path):
-    args = ["experiment", "sonar", "-o", str(tmp_path), "--seeds", "1", "--resolution",
-            "96x72", "--duration", "1", "--flies", "300"]  # fmt: skip
+    args = [
+        "experiment",
+        "sonar",
+        "-o",
+        str(tmp_path),
+        "--seeds",
+        "1",
+        "--resolution",
+        "96x72",
+        "--duration",
+        "1",
+        "--flies",
+        "300",
+    ]
     result = CliRunner().invoke(cli, args)
     assert result.exit_code == 0, result.output
     assert "with sonar fusion" in result.output

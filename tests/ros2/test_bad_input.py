@@ -70,14 +70,19 @@ def test_camera_info_of_another_size_than_the_images(tmp_path):
     for topic, mtype, t, msg in bags.messages(BagSpec(frames=2)):
         if mtype == "sensor_msgs/msg/CameraInfo":
             msg = bags.camera_info(
-                t, msg.header.frame_id, msg.p[3], size=(80, 60),
-                k=bags.k_matrix(39.5, 29.5), p=bags.p_matrix(msg.p[3], 39.5, 29.5),
-            )  # fmt: skip
+                t,
+                msg.header.frame_id,
+                msg.p[3],
+                size=(80, 60),
+                k=bags.k_matrix(39.5, 29.5),
+                p=bags.p_matrix(msg.p[3], 39.5, 29.5),
+            )
         items.append((topic, mtype, t, msg))
     refused(
-        tmp_path, write_bag(tmp_path / "bag", items),
+        tmp_path,
+        write_bag(tmp_path / "bag", items),
         "/stereo/left/image_rect has 64×48 images but /stereo/left/camera_info calibrates 80×60",
-    )  # fmt: skip
+    )
 
 
 def test_a_range_topic_without_a_transform(tmp_path):
@@ -102,10 +107,12 @@ def test_a_ros1_bag_and_non_square_pixels(tmp_path):
             msg.p[5] = 41.0  # fy ≠ fx = 40
         items.append((topic, mtype, t, msg))
     refused(
-        tmp_path, write_bag(tmp_path / "rect", items),
+        tmp_path,
+        write_bag(tmp_path / "rect", items),
         "/stereo/left/camera_info and /stereo/right/camera_info: the left P has fx = 40.0, "
-        "fy = 41.0", "needs square pixels",
-    )  # fmt: skip
+        "fy = 41.0",
+        "needs square pixels",
+    )
 
 
 def test_ros2idl_schemas_are_refused_by_name(tmp_path):

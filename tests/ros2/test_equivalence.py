@@ -84,9 +84,23 @@ def test_a_tilted_off_centre_log_replays_bit_for_bit_from_its_export(tmp_path):
     log = tmp_path / "tilted.mcap"
     scene = CORRIDOR.parents[1] / "scenes" / "corridor.toml"
     simulate = [
-        "simulate", str(scene), "-o", str(log), "--duration", "1", "--resolution", "160x120",
-        "--tilt", "15", "--roll", "-2", "--principal-point", "85,55", "--doffs", "2",
-    ]  # fmt: skip
+        "simulate",
+        str(scene),
+        "-o",
+        str(log),
+        "--duration",
+        "1",
+        "--resolution",
+        "160x120",
+        "--tilt",
+        "15",
+        "--roll",
+        "-2",
+        "--principal-point",
+        "85,55",
+        "--doffs",
+        "2",
+    ]
     result = CliRunner().invoke(cli, simulate)
     assert result.exit_code == 0, result.output
     bag = export_ros2(log, tmp_path / "bag").output
