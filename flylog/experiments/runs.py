@@ -36,17 +36,12 @@ def simulate_scene(
 ) -> Path:
     """Simulate ``scene_name`` at the options' resolution; ``drive_with``: closed loop, the
     engine and planner with that configuration drive the robot."""
-    from flylog.replay.closed_loop import PlannerDriver
+    from flylog.replay.closed_loop import planner_driver
     from flylog.scene.load import load_scene
     from flylog.sim.run import SimulationOptions, simulate
 
     scene = load_scene(options.scene_path(scene_name))
-    make_driver = None
-    if drive_with is not None:
-
-        def make_driver(scene, write):
-            return PlannerDriver(drive_with, scene.spec.camera, scene.start_pose, scene.goal, write)
-
+    make_driver = None if drive_with is None else planner_driver(drive_with)
     sim = SimulationOptions(duration=duration, seed=seed, resolution=options.resolution)
     simulate(scene, output, sim, make_driver=make_driver)
     return output

@@ -66,13 +66,10 @@ def _simulate(task: SimulationTask) -> None:
         frame_rate=task.frame_rate,
     )
     make_driver = None
-    config = task.config
-    if config is not None:
-        from flylog.replay.closed_loop import PlannerDriver
+    if task.config is not None:
+        from flylog.replay.closed_loop import planner_driver
 
-        def make_driver(scene, write):
-            return PlannerDriver(config, scene.spec.camera, scene.start_pose, scene.goal, write)
-
+        make_driver = planner_driver(task.config)
     task.output.parent.mkdir(parents=True, exist_ok=True)
     simulate(scene, task.output, options, make_driver=make_driver)
 
