@@ -67,7 +67,7 @@ class ExportSummary:
     topics: int
 
 
-class _Bag:
+class ExportBag:
     """A rosbags writer with connections made on first use."""
 
     def __init__(self, path: Path) -> None:
@@ -115,24 +115,24 @@ def export_ros2(
     prefix = f"{part_stem(output)}."
     staging = Path(tempfile.mkdtemp(prefix=prefix, suffix=".part", dir=output.parent))
     try:
-        bag = _Bag(staging / output.name)
+        bag = ExportBag(staging / output.name)
         if goal is not None:
             bag.writer.set_custom_data(GOAL_KEY, json.dumps(json.loads(goal)))
         for attachment in reader.attachments() if truth else ():
             if attachment.name == SCENE_ATTACHMENT:
                 bag.writer.set_custom_data(SCENE_KEY, attachment.data.decode("utf-8"))
         with bag.writer:
-            _Translation(bag, image_format).run(reader, truth, on_progress)
+            LogTranslation(bag, image_format).run(reader, truth, on_progress)
         os.replace(staging / output.name, output)
     finally:
         shutil.rmtree(staging, ignore_errors=True)
     return ExportSummary(output, bag.count, bag.topics)
 
 
-class _Translation:
+class LogTranslation:
     """The flylog log's messages, one by one, as ROS 2 messages."""
 
-    def __init__(self, bag: _Bag, image_format: ImageFormat) -> None:
+    def __init__(self, bag: ExportBag, image_format: ImageFormat) -> None:
         self.bag = bag
         self.fmt = image_format
         self.protobuf = DecoderFactory()
