@@ -1,6 +1,6 @@
 """``flylog export``: thin wrapper over :func:`flylog.metrics.tum.export_tum` (``--tum``),
 :func:`flylog.ros2.export.export_ros2` (``--ros2`` of a sensor log),
-:func:`flylog.ros2.run_export.export_run_ros2` (``--ros2`` of a run) and
+:func:`flylog.export.run_bag.export_run_ros2` (``--ros2`` of a run) and
 :func:`flylog.fly.snapshot_export.export_ply` (``--ply``)."""
 
 from __future__ import annotations
@@ -106,7 +106,7 @@ def export(
     if ply_dir is not None:
         _export_ply(source, ply_dir, at)
         return
-    from flylog.ros2.run_export import is_run
+    from flylog.export.run_bag import is_run
 
     if ros2_dir is not None and (with_log is not None or is_run(source)):
         _export_run(source, ros2_dir, with_log, image_format, truth)
@@ -117,9 +117,12 @@ def export(
 
         with progress_bar(f"export {source.name}", unit="s") as update:
             summary = export_ros2(
-                source, ros2_dir, image_format=ImageFormat(image_format), truth=truth,
+                source,
+                ros2_dir,
+                image_format=ImageFormat(image_format),
+                truth=truth,
                 on_progress=update,
-            )  # fmt: skip
+            )
         stdout.print(f"{summary.output}: {summary.messages} messages on {summary.topics} topics")
         return
     from flylog.metrics.tum import export_tum
@@ -164,8 +167,8 @@ def _export_ply(source: Path, ply_dir: Path, at: float | None) -> None:
 def _export_run(
     source: Path, ros2_dir: Path, with_log: Path | None, image_format: str, truth: bool
 ) -> None:
+    from flylog.export.run_bag import export_run_ros2
     from flylog.ros2.messages import ImageFormat
-    from flylog.ros2.run_export import export_run_ros2
 
     with progress_bar(f"export {source.name}", unit="s") as update:
         summary = export_run_ros2(

@@ -10,57 +10,58 @@ import click
 
 from flylog.cli.common import Finite, OutputPath, progress_bar, reports_errors, stdout
 
+# (summary column, label): the unit is the column's (flylog.metrics.tables).
 _SHOWN = (
-    ("snapshots", "fly snapshots", ""),
-    ("precision", "precision", ""),
-    ("recall", "recall", ""),
-    ("f_score", "F-score", ""),
-    ("median_depth_error", "median relative depth error", ""),
-    ("nearest_error_m", "nearest obstacle: median |detected − visible|", "m"),
-    ("obstacles_detected", "obstacles detected", ""),
-    ("obstacles_visible", "obstacles visible", ""),
-    ("detection_latency_mean_s", "detection latency, mean", "s"),
-    ("detection_latency_max_s", "detection latency, max", "s"),
-    ("goal_reached", "goal reached", ""),
-    ("planner_goal_reached", "planner said goal reached", ""),
-    ("time_to_goal_s", "time to goal", "s"),
-    ("final_goal_distance_m", "final distance to goal", "m"),
-    ("path_length_m", "path length", "m"),
-    ("min_clearance_m", "minimum clearance", "m"),
-    ("collisions", "collisions", ""),
-    ("ate_m", "odometry ATE (aligned)", "m"),
-    ("rpe_m", "odometry RPE, translation", "m"),
-    ("rpe_deg", "odometry RPE, rotation", "deg"),
-    ("generations", "generations", ""),
-    ("evaluations_per_s", "evaluations per second", "1/s"),
-    ("wall_s", "run wall time", "s"),
-    ("metrics_wall_s", "metrics wall time", "s"),
+    ("snapshots", "fly snapshots"),
+    ("precision", "precision"),
+    ("recall", "recall"),
+    ("f_score", "F-score"),
+    ("median_depth_error", "median relative depth error"),
+    ("nearest_error_m", "nearest obstacle: median |detected − visible|"),
+    ("obstacles_detected", "obstacles detected"),
+    ("obstacles_visible", "obstacles visible"),
+    ("detection_latency_mean_s", "detection latency, mean"),
+    ("detection_latency_max_s", "detection latency, max"),
+    ("goal_reached", "goal reached"),
+    ("planner_goal_reached", "planner said goal reached"),
+    ("time_to_goal_s", "time to goal"),
+    ("final_goal_distance_m", "final distance to goal"),
+    ("path_length_m", "path length"),
+    ("min_clearance_m", "minimum clearance"),
+    ("collisions", "collisions"),
+    ("ate_m", "odometry ATE (aligned)"),
+    ("rpe_m", "odometry RPE, translation"),
+    ("rpe_deg", "odometry RPE, rotation"),
+    ("generations", "generations"),
+    ("evaluations_per_s", "evaluations per second"),
+    ("wall_s", "run wall time"),
+    ("metrics_wall_s", "metrics wall time"),
 )
 
 # Against an imported dataset's ground-truth disparity (flylog.metrics.image_run).
 _IMAGE_SHOWN = (
-    ("snapshots", "fly snapshots", ""),
-    ("truth_images", "ground-truth images", ""),
-    ("scored_points", "flies scored (in view, on known truth)", ""),
-    ("precision", "precision", ""),
-    ("recall", "recall", ""),
-    ("f_score", "F-score", ""),
-    ("median_depth_error", "median relative depth error", ""),
-    ("disparity_error_median_px", "median disparity error", "px"),
-    ("bad1", "bad1 (share off by > 1 px)", ""),
-    ("bad2", "bad2 (share off by > 2 px)", ""),
-    ("coverage", "coverage (cells with a fly within 2 px)", ""),
-    ("sgbm_dense_error_median_px", "SGBM dense map: median error", "px"),
-    ("sgbm_dense_bad2", "SGBM dense map: bad2", ""),
-    ("sgbm_dense_density", "SGBM dense map: share of truth matched", ""),
-    ("generations", "generations", ""),
-    ("wall_s", "run wall time", "s"),
-    ("metrics_wall_s", "metrics wall time", "s"),
+    ("snapshots", "fly snapshots"),
+    ("truth_images", "ground-truth images"),
+    ("scored_points", "flies scored (in view, on known truth)"),
+    ("precision", "precision"),
+    ("recall", "recall"),
+    ("f_score", "F-score"),
+    ("median_depth_error", "median relative depth error"),
+    ("disparity_error_median_px", "median disparity error"),
+    ("bad1", "bad1 (share off by > 1 px)"),
+    ("bad2", "bad2 (share off by > 2 px)"),
+    ("coverage", "coverage (cells with a fly within 2 px)"),
+    ("sgbm_dense_error_median_px", "SGBM dense map: median error"),
+    ("sgbm_dense_bad2", "SGBM dense map: bad2"),
+    ("sgbm_dense_density", "SGBM dense map: share of truth matched"),
+    ("generations", "generations"),
+    ("wall_s", "run wall time"),
+    ("metrics_wall_s", "metrics wall time"),
 )
 
 
 # The packaged confidence model's calibration (flylog.metrics.calibration).
-_CONFIDENCE_SHOWN = ("confidence_ece", "confidence: expected calibration error", "")
+_CONFIDENCE_SHOWN = ("confidence_ece", "confidence: expected calibration error")
 
 
 def _fmt(value: Any) -> str:
@@ -101,12 +102,26 @@ def _fmt(value: Any) -> str:
     default=None,
     help="TOML file of metrics thresholds (fields of flylog.metrics.config.MetricsConfig).",
 )
-@click.option("--tau", type=Finite(0.0, 1.0), default=None, help="Relative depth "
-              "tolerance of 'on a surface'. [default: 0.05]")  # fmt: skip
-@click.option("--goal-tolerance", type=Finite(min=0.0), default=None, metavar="M",
-              help="Distance at which the goal counts as reached. [default: 0.2 m]")  # fmt: skip
-@click.option("--rpe-delta", type=Finite(min=0.001), default=None, metavar="S",
-              help="Time step of the relative pose error. [default: 1 s]")  # fmt: skip
+@click.option(
+    "--tau",
+    type=Finite(0.0, 1.0),
+    default=None,
+    help="Relative depth tolerance of 'on a surface'. [default: 0.05]",
+)
+@click.option(
+    "--goal-tolerance",
+    type=Finite(min=0.0),
+    default=None,
+    metavar="M",
+    help="Distance at which the goal counts as reached. [default: 0.2 m]",
+)
+@click.option(
+    "--rpe-delta",
+    type=Finite(min=0.001),
+    default=None,
+    metavar="S",
+    help="Time step of the relative pose error. [default: 1 s]",
+)
 @reports_errors
 def metrics(
     run: Path,
@@ -127,14 +142,16 @@ def metrics(
     from flylog.config import from_mapping, read_toml, replace_dotted
     from flylog.io.collisions import Role, check_outputs
     from flylog.metrics.config import MetricsConfig
-    from flylog.metrics.score import score_run, write_metrics, write_reliability
+    from flylog.metrics.score import score_run
     from flylog.metrics.tables import (
+        SUMMARY_COLUMNS,
         check_output_name,
         default_output,
         obstacles_path,
         reliability_path,
         summary_path,
     )
+    from flylog.metrics.write import write_metrics, write_reliability
 
     output = default_output(run) if output is None else output
     check_output_name(output)  # before the scoring, which takes a while
@@ -163,8 +180,9 @@ def metrics(
     shown = _SHOWN if result.summary.get("truth_images") is None else _IMAGE_SHOWN
     # Rows with a value for this run only: a replay has no time to goal, a fly run on a
     # dataset no SGBM dense map.
+    unit = {c.name: c.unit for c in SUMMARY_COLUMNS}
     rows = [
-        [label, _fmt(result.summary[key]), unit] for key, label, unit in (*shown, _CONFIDENCE_SHOWN)
+        [label, _fmt(result.summary[key]), unit[key]] for key, label in (*shown, _CONFIDENCE_SHOWN)
     ]
     rows = [row for row in rows if row[1] != "—"]
     print_fitted(stdout, f"metrics of {run}", ["metric", "value", "unit"], rows, right=[1])

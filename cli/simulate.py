@@ -177,15 +177,13 @@ def simulate(
     )
     make_driver = None
     if drive == "planner":
-        from flylog.replay.closed_loop import PlannerDriver
+        from flylog.replay.closed_loop import planner_driver
         from flylog.replay.config import ReplayConfig, load_replay_config
         from flylog.replay.limits import check_closed_loop
 
         config = load_replay_config(config_file) if config_file else ReplayConfig()
         check_closed_loop(config, loaded, options)
-
-        def make_driver(scene, write):
-            return PlannerDriver(config, scene.spec.camera, scene.start_pose, scene.goal, write)
+        make_driver = planner_driver(config)
 
     elif config_file is not None:
         raise click.UsageError("--config goes with --drive planner")

@@ -221,6 +221,7 @@ def sweep(
     if result.failed:
         for row in result.failed:
             first = (row["error"] or "").splitlines()[0] if row["error"] else "?"
-            stderr.print(f"[red]failed:[/] cell {row['cell']} ({row['run_dir']}): {first}",
-                         soft_wrap=True)  # fmt: skip
+            stderr.print(
+                f"[red]failed:[/] cell {row['cell']} ({row['run_dir']}): {first}", soft_wrap=True
+            )
         sys.exit(EXIT_FAILED_CELLS)

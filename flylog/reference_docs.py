@@ -34,7 +34,7 @@ def _schemas() -> dict[str, Callable[[], str]]:
         return make
 
     return {
-        "replay-steps": block("flylog.replay.run", "STEP_COLUMNS"),
+        "replay-steps": block("flylog.replay.planner_jobs", "STEP_COLUMNS"),
         "metrics-snapshots": block("flylog.metrics.tables", "SNAPSHOT_COLUMNS"),
         "metrics-summary": block("flylog.metrics.tables", "SUMMARY_COLUMNS"),
         "metrics-obstacles": block("flylog.metrics.tables", "OBSTACLE_COLUMNS"),

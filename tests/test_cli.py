@@ -61,9 +61,16 @@ def test_metrics_imports_no_other_commands_library():
     """`flylog metrics` starts in well under a second: it imports neither the replay, the
     experiments, the planner, the renderer, opencv, matplotlib nor the writing side."""
     unneeded = (
-        "flylog.replay", "flylog.experiments", "flylog.planner", "flylog.sim.render",
-        "flylog.io.writer", "flylog.io.encode", "mcap.writer", "cv2", "matplotlib",
-    )  # fmt: skip
+        "flylog.replay",
+        "flylog.experiments",
+        "flylog.planner",
+        "flylog.sim.render",
+        "flylog.io.writer",
+        "flylog.io.encode",
+        "mcap.writer",
+        "cv2",
+        "matplotlib",
+    )
     assert _imported_by(METRICS_PATH, unneeded) == []
 
 
@@ -98,8 +105,10 @@ def test_replay_leaves_its_imports_out_of_garbage_collection(tmp_path):
     )
     out = subprocess.run(
         [sys.executable, "-c", code, str(tmp_path / "run.mcap")],
-        capture_output=True, text=True, check=True,
-    )  # fmt: skip
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     frozen, defaults = out.stdout.split()[-2:]
     assert int(frozen) > 50_000
     assert defaults == "True"  # collections as often as Python's defaults once imported

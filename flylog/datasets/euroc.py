@@ -119,9 +119,16 @@ def rectifier(cam0: Camera, cam1: Camera) -> Rectifier:
         )
         raise LogError(msg)
     r1, r2, p1, p2, *_ = cv2.stereoRectify(
-        cam0.k, cam0.distortion, cam1.k, cam1.distortion, cam0.size,
-        t_10[:3, :3], t_10[:3, 3].reshape(3, 1), flags=cv2.CALIB_ZERO_DISPARITY, alpha=0,
-    )  # fmt: skip
+        cam0.k,
+        cam0.distortion,
+        cam1.k,
+        cam1.distortion,
+        cam0.size,
+        t_10[:3, :3],
+        t_10[:3, 3].reshape(3, 1),
+        flags=cv2.CALIB_ZERO_DISPARITY,
+        alpha=0,
+    )
     maps = tuple(
         cv2.initUndistortRectifyMap(c.k, c.distortion, r, p, cam0.size, cv2.CV_32FC1)
         for c, r, p in ((cam0, r1, p1), (cam1, r2, p2))
@@ -204,15 +211,18 @@ def _truth(path: Path) -> tuple[np.ndarray, np.ndarray]:
 
 def _rotation(q: np.ndarray) -> np.ndarray:
     w, x, y, z = q / np.linalg.norm(q)
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-    ])  # fmt: skip
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
 
 
-def ground_poses(stamps: np.ndarray, body: np.ndarray, left_in_body: np.ndarray,
-                 baseline: float) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+def ground_poses(
+    stamps: np.ndarray, body: np.ndarray, left_in_body: np.ndarray, baseline: float
+) -> tuple[np.ndarray, np.ndarray]:
     """(N, 2) midpoint x, y and (N,) heading of the rectified cameras' optical axis."""
     xy, heading = np.empty((len(stamps), 2)), np.empty(len(stamps))
     mid = left_in_body[:3, :3] @ np.array([baseline / 2.0, 0.0, 0.0]) + left_in_body[:3, 3]
@@ -255,8 +265,14 @@ def sources(path: Path) -> list[Source]:
     """The one source of a EuRoC sequence folder (the one holding ``mav0``, or ``mav0``)."""
     path = Path(path)
     mav = path if path.name == "mav0" else path / "mav0"
-    for name in ("cam0/data.csv", "cam0/sensor.yaml", "cam0/data", "cam1/data.csv",
-                 "cam1/sensor.yaml", "cam1/data"):  # fmt: skip
+    for name in (
+        "cam0/data.csv",
+        "cam0/sensor.yaml",
+        "cam0/data",
+        "cam1/data.csv",
+        "cam1/sensor.yaml",
+        "cam1/data",
+    ):
         if not (mav / name).exists():
             msg = f"{mav / name}: missing ({LAYOUT})"
             raise LogError(msg)

@@ -75,12 +75,14 @@ class StereoFolders:
 # (cameras 2 and 3, 6 cm from camera 0: image_0's ground truth does not apply to it).
 STEREO_FOLDERS = (
     StereoFolders(
-        "image_2", "image_3",
-        (("calib_cam_to_cam", "P_rect_02", "P_rect_03"), ("calib", "P2", "P3")), truth=True,
+        "image_2",
+        "image_3",
+        (("calib_cam_to_cam", "P_rect_02", "P_rect_03"), ("calib", "P2", "P3")),
+        truth=True,
     ),
     StereoFolders("image_0", "image_1", (("calib", "P0", "P1"),), truth=True),
     StereoFolders("colored_0", "colored_1", (("calib", "P2", "P3"),), truth=False),
-)  # fmt: skip
+)
 
 
 class KittiPoseWarning(UserWarning):
@@ -178,9 +180,13 @@ def _frame_name(name: str, k: int) -> str:
 
 
 def _stereo_frames(
-    folder: Path, folders: StereoFolders, name: str, indices: tuple[int, ...],
-    truth: Path | None, period_ns: int,
-) -> Iterator[DatasetFrame]:  # fmt: skip
+    folder: Path,
+    folders: StereoFolders,
+    name: str,
+    indices: tuple[int, ...],
+    truth: Path | None,
+    period_ns: int,
+) -> Iterator[DatasetFrame]:
     """The frames ``indices`` of scene ``name``, frame k stamped k × ``period_ns``, frame 10
     with the ground truth."""
     for k in indices:

@@ -155,5 +155,7 @@ def scene_frames(folder: Path, rig: StereoRig) -> Iterator[DatasetFrame]:
 
 def sources(path: Path) -> list[Source]:
     """One source per scene folder at or under ``path`` (checked before anything is read)."""
-    return [Source(f.name, f, rig, partial(scene_frames, f, rig)) for f, rig in
-            ((f, scene_rig(f)) for f in scenes(path))]  # fmt: skip
+    return [
+        Source(f.name, f, rig, partial(scene_frames, f, rig))
+        for f, rig in ((f, scene_rig(f)) for f in scenes(path))
+    ]

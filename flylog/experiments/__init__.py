@@ -1,9 +1,9 @@
 """flylog.experiments: the paper's experiments, reproduced with tables and plots.
 
-``run_experiment(name, out_dir, options)`` runs one of :data:`EXPERIMENTS` in this process
-and writes ``out_dir/NAME/summary.md`` with its PNGs; ``flylog.experiments.parallel`` runs
-the same cells (``experiment_plan``) on a process pool. The modules are imported only when
-run.
+``experiment_plan(name, out_dir, options)`` plans the cells of one of :data:`EXPERIMENTS`;
+``flylog.experiments.parallel`` runs them, in this process (``run_experiment``: it writes
+``out_dir/NAME/summary.md`` with its PNGs) or on a process pool. The modules are imported
+only when run.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from flylog.errors import ConfigError
 
 if TYPE_CHECKING:
     from flylog.experiments.cells import ExperimentPlan
-    from flylog.experiments.common import ExperimentOptions, ExperimentResult, Progress
+    from flylog.experiments.common import ExperimentOptions
 
 # name → (module, the function that plans its cells, what it reproduces)
 EXPERIMENTS = MappingProxyType(
@@ -59,18 +59,3 @@ def experiment_plan(name: str, out_dir: Path, options: ExperimentOptions) -> Exp
     module, function, _ = EXPERIMENTS[name]
     plan = getattr(importlib.import_module(f"flylog.experiments.{module}"), function)
     return plan(Path(out_dir), options)
-
-
-def run_experiment(
-    name: str,
-    out_dir: Path,
-    options: ExperimentOptions,
-    *,
-    on_progress: Progress | None = None,
-) -> ExperimentResult:
-    """Run the experiment ``name`` into ``out_dir/name/``, its cells one after the other in
-    this process; ``on_progress(done, total)`` in the cells' expected work (log
-    seconds), moving within each cell."""
-    from flylog.experiments.parallel import run_plans_serially
-
-    return run_plans_serially([experiment_plan(name, out_dir, options)], on_progress)[0]

@@ -144,8 +144,8 @@ def _run_cell(task: _Cell) -> list[dict]:
 
 
 def _turn_rows(task: _Cell, log: Path) -> Iterator[tuple[str, dict, Path]]:
-    from flylog.metrics.truth import read_truth
     from flylog.scene.load import load_scene
+    from flylog.sources import read_truth
 
     turn = load_scene(task.options.scene_path(TURN))
     period_s = 1.0 / turn.spec.camera.frame_rate

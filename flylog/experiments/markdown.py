@@ -70,9 +70,14 @@ def finish_experiment(
     """Write an experiment's summary.md and results.json, drop its logs unless kept, and
     return its result: the common ending of every experiment."""
     summary = write_summary(
-        directory, title=title, intro=intro, table=table, findings=findings, figures=figures,
+        directory,
+        title=title,
+        intro=intro,
+        table=table,
+        findings=findings,
+        figures=figures,
         setup=setup,
-    )  # fmt: skip
+    )
     write_results(directory, options, table, runs)
     discard_logs(directory, options)
     return ExperimentResult(

@@ -11,6 +11,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from flylog.experiments import experiment_plan
 from flylog.experiments.cell_progress import FileSink, Sink, read_progress, reporting
 from flylog.experiments.cells import ExperimentCell, ExperimentPlan, finish_in_order, run_cell
 from flylog.experiments.common import ExperimentOptions, ExperimentResult, Progress
@@ -54,6 +55,19 @@ def run_cell_reporting(item: tuple[ExperimentCell, Path]) -> Any:
     cell, progress_file = item
     with reporting(FileSink(progress_file)):
         return run_cell(cell)
+
+
+def run_experiment(
+    name: str,
+    out_dir: Path,
+    options: ExperimentOptions,
+    *,
+    on_progress: Progress | None = None,
+) -> ExperimentResult:
+    """Run the experiment ``name`` into ``out_dir/name/``, its cells one after the other in
+    this process; ``on_progress(done, total)`` in the cells' expected work (log
+    seconds), moving within each cell."""
+    return run_plans_serially([experiment_plan(name, out_dir, options)], on_progress)[0]
 
 
 def run_plans(
@@ -119,7 +133,5 @@ def run_experiments(
     """Run the experiments ``names`` into ``out_dir/NAME/`` on ``workers`` processes; their
     results in the order of ``names``. ``on_progress(done, total)`` in expected work (log
     seconds, :func:`run_plans`)."""
-    from flylog.experiments import experiment_plan
-
     plans = [experiment_plan(name, Path(out_dir), options) for name in names]
     return run_plans(plans, workers=workers, on_progress=on_progress)

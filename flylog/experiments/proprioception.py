@@ -194,7 +194,7 @@ def _findings(table: Table) -> list[str]:
 
 def _drawn(first: dict[str, ScoredRun], log: Path, duration: float, frame_rate: float) -> _Drawn:
     """Seed 0's frames N and N + FRAME_STEP with the obstacle flies, and its map panels."""
-    from flylog.metrics.truth import read_truth
+    from flylog.sources import read_truth
 
     rig = read_truth(log).rig
     period_ns = 1e9 / frame_rate

@@ -35,8 +35,9 @@ def first_visible_frames(
     from flylog.geometry import Pose2D
     from flylog.io import contract
     from flylog.io.reader import open_log
-    from flylog.metrics.trajectory import interpolate_poses, trajectory
+    from flylog.metrics.trajectory import interpolate_poses
     from flylog.sim.render import Renderer
+    from flylog.sources.trajectory import trajectory
 
     need = entered_view_pixels(rig) if min_pixels is None else min_pixels
     reader = open_log(log)

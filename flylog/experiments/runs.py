@@ -37,17 +37,12 @@ def simulate_scene(
 ) -> Path:
     """Simulate ``scene_name`` at the options' resolution; ``drive_with``: closed loop, the
     engine and planner with that configuration drive the robot."""
-    from flylog.replay.closed_loop import PlannerDriver
+    from flylog.replay.closed_loop import planner_driver
     from flylog.scene.load import load_scene
     from flylog.sim.run import SimulationOptions, simulate
 
     scene = load_scene(options.scene_path(scene_name))
-    make_driver = None
-    if drive_with is not None:
-
-        def make_driver(scene, write):
-            return PlannerDriver(drive_with, scene.spec.camera, scene.start_pose, scene.goal, write)
-
+    make_driver = None if drive_with is None else planner_driver(drive_with)
     sim = SimulationOptions(duration=duration, seed=seed, resolution=options.resolution)
     simulate(scene, output, sim, make_driver=make_driver, on_frame=stage(duration))
     return output
@@ -101,7 +96,7 @@ def fly_snapshots(run: Path) -> tuple[np.ndarray, list[np.ndarray]]:
     by the run's own obstacle rule (its metadata)."""
     from flylog.io import contract, open_log
     from flylog.metrics.config import MetricsConfig
-    from flylog.metrics.score import run_facts
+    from flylog.metrics.result import run_facts
 
     reader = open_log(run)
     rule = run_facts(reader, MetricsConfig()).rule
@@ -133,7 +128,7 @@ def trajectories(log: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Times (s since the first true pose), true (N, 3) and odometric (N, 3) poses of a
     sensor log, the odometry interpolated at the true poses' times."""
     from flylog.metrics.trajectory import interpolate_poses
-    from flylog.metrics.truth import read_truth
+    from flylog.sources import read_truth
 
     truth = read_truth(log)
     t = truth.true.t_ns
@@ -143,7 +138,7 @@ def trajectories(log: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def true_poses_at(log: Path, t_ns: np.ndarray) -> np.ndarray:
     """(M, 3) true poses interpolated at the given log times."""
     from flylog.metrics.trajectory import interpolate_poses
-    from flylog.metrics.truth import read_truth
+    from flylog.sources import read_truth
 
     return interpolate_poses(read_truth(log).true, np.asarray(t_ns, dtype=np.int64))
 

@@ -233,7 +233,7 @@ def _table(runs: list[dict], seeds: int) -> Table:
 
 def _drawn(here: Path, log: Path, duration: float) -> _Drawn:
     """Seed 0's obstacle flies at 0.6 of the run, on the map and on the left frame."""
-    from flylog.metrics.truth import read_truth
+    from flylog.sources import read_truth
 
     rig = read_truth(log).rig
     at_ns = round(duration * 0.6e9)

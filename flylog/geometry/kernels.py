@@ -1,6 +1,6 @@
 """The stereo rig in compiled kernels: one float64 array and inline projection helpers.
 
-Layout of :func:`rig_array` (indices below): focal length, left cx, cy, right cx (cx +
+Layout of :meth:`StereoRig.constants` (indices below): focal length, left cx, cy, right cx (cx +
 doffs), the left and right optical centres in base_link, the base_link → optical rotation
 row by row, and whether the rig is level (a kernel's fast path for it must give the same
 numbers: with the level rotation's zeros and ones the general arithmetic reduces exactly to
@@ -14,13 +14,7 @@ layout index, a helper), so after one, delete the caches (``make clean`` does).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numba
-import numpy as np
-
-if TYPE_CHECKING:
-    from flylog.geometry.stereo import StereoRig
 
 FOCAL, CX, CY, CX_RIGHT = 0, 1, 2, 3
 LEFT = 4  # left optical centre x, y, z at 4, 5, 6
@@ -28,16 +22,6 @@ RIGHT = 7  # right optical centre x, y, z at 7, 8, 9
 ROWS = 10  # base_link → optical rotation, row-major, at 10…18
 LEVEL = 19  # 1.0 for a level rig (optical axes along base_link x), else 0.0
 RIG_SIZE = 20
-
-
-def rig_array(rig: StereoRig) -> np.ndarray:
-    """The rig's numbers in the layout above (float64, RIG_SIZE)."""
-    m, left, right = rig._frame()
-    level = 1.0 if rig.is_level else 0.0
-    return np.array(
-        [rig.focal_px, rig.cx, rig.cy, rig.cx_right, *left, *right, *m[0], *m[1], *m[2], level],
-        dtype=np.float64,
-    )
 
 
 @numba.njit(cache=True, nogil=True, inline="always")

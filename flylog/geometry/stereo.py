@@ -89,14 +89,18 @@ class StereoRig:
         unit="px",
     )
     doffs: float = param(
-        0.0, help="right principal point's x minus the left's (disparity = f·B/Z − doffs)",
+        0.0,
+        help="right principal point's x minus the left's (disparity = f·B/Z − doffs)",
         unit="px",
-    )  # fmt: skip
+    )
     tilt: float = param(0.0, help="downward pitch of the optical axes", unit="deg", min=-60, max=60)
     roll: float = param(
-        0.0, help="roll about the optical axis (positive lowers the right camera)", unit="deg",
-        min=-45, max=45,
-    )  # fmt: skip
+        0.0,
+        help="roll about the optical axis (positive lowers the right camera)",
+        unit="deg",
+        min=-45,
+        max=45,
+    )
     pan: float = param(0.0, help="leftward yaw of the optical axes", unit="deg", min=-90, max=90)
     frame_rate: float = param(
         15.0, help="stereo pairs per second", unit="Hz", min=0.1, max=MAX_FRAME_RATE
@@ -185,10 +189,25 @@ class StereoRig:
 
     def constants(self) -> np.ndarray:
         """The rig as the float64 array the compiled kernels take
-        (layout: :mod:`flylog.geometry.kernels`)."""
-        from flylog.geometry.kernels import rig_array
-
-        return rig_array(self)
+        (layout: :mod:`flylog.geometry.kernels`, which this module leaves unimported: it
+        imports numba)."""
+        m, left, right = self._frame()
+        level = 1.0 if self.is_level else 0.0
+        return np.array(
+            [
+                self.focal_px,
+                self.cx,
+                self.cy,
+                self.cx_right,
+                *left,
+                *right,
+                *m[0],
+                *m[1],
+                *m[2],
+                level,
+            ],
+            dtype=np.float64,
+        )
 
     def _frame(self) -> tuple[list[list[float]], Point, Point]:
         """(base_link → optical rotation rows, left centre, right centre) as Python floats,

@@ -73,9 +73,12 @@ def indexed_attachments(
     """The attachments the summary indexes, each where its index says or ``shift`` bytes
     further (the first that passes its checks), and a description of each one skipped."""
     return _indexed(
-        fh, summary.attachment_indexes, shift, Opcode.ATTACHMENT,
+        fh,
+        summary.attachment_indexes,
+        shift,
+        Opcode.ATTACHMENT,
         lambda body: checked_attachment(body, require_crc=require_crcs),
-    )  # fmt: skip
+    )
 
 
 def indexed_metadata(
@@ -85,6 +88,9 @@ def indexed_metadata(
     bytes further (the first that parses with its index's name), and a description of each
     one skipped. MCAP gives them no CRC: a record is skipped only when it cannot be parsed."""
     return _indexed(
-        fh, summary.metadata_indexes, shift, Opcode.METADATA,
+        fh,
+        summary.metadata_indexes,
+        shift,
+        Opcode.METADATA,
         lambda body: Metadata.read(ReadDataStream(io.BytesIO(body))),
-    )  # fmt: skip
+    )

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
 from typing import TYPE_CHECKING, Any, NamedTuple
@@ -50,6 +50,27 @@ def columns_metadata(columns: Iterable[Column]) -> str:
     """The ``flylog.columns`` key-value metadata of a table: each column's unit and
     description, as JSON."""
     return json.dumps({c.name: {"unit": c.unit, "description": c.description} for c in columns})
+
+
+def table_row(columns: Iterable[Column], values: Mapping[str, Any]) -> dict[str, Any]:
+    """The row of ``columns``, in their order, from ``values``: a ValueError names every
+    column without a value and every value without a column, so a row built by hand cannot
+    drift from its table's definition unnoticed."""
+    row = _checked(tuple(c.name for c in columns), values)
+    return {name: values[name] for name in row}
+
+
+def _checked(names: tuple[str, ...], values: Mapping[str, Any]) -> tuple[str, ...]:
+    if len(values) != len(names) or any(name not in values for name in names):
+        missing = [name for name in names if name not in values]
+        unknown = [key for key in values if key not in names]
+        msg = (
+            f"a row of the table ({', '.join(names[:3])}, ...) has no value for "
+            f"{missing or 'none'} and values for no column {unknown or 'none'}: build it "
+            f"from the table's columns"
+        )
+        raise ValueError(msg)
+    return names
 
 
 def schema(columns: Iterable[Column]) -> pa.Schema:
@@ -108,6 +129,7 @@ class TableWriter:
         self._metadata = metadata
         self._schema: pa.Schema | None = None  # built from _source at first use
         self._rows_per_group = rows_per_group
+        self._names = tuple(names)
         self._columns: dict[str, list[Any]] = {name: [] for name in names}
         self._buffered = 0
         self._writer: pq.ParquetWriter | None = None
@@ -137,7 +159,9 @@ class TableWriter:
             self._writer = pq.ParquetWriter(self._tmp, self.schema, compression="zstd")
         return self._writer
 
-    def append(self, row: dict[str, Any]) -> None:
+    def append(self, row: Mapping[str, Any]) -> None:
+        """One row, a value for each column and for no other (ValueError naming them)."""
+        _checked(self._names, row)
         if self._writer is None:
             self._open()
         for name, column in self._columns.items():

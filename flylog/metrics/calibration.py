@@ -23,9 +23,13 @@ from flylog.errors import LogError
 from flylog.fly import confidence as cf
 from flylog.io import contract, open_log
 from flylog.io.reader import LogReader
+from flylog.io.tables import table_row
+from flylog.metrics import tables
 from flylog.metrics.config import MetricsConfig
 from flylog.metrics.provenance import config_digest
+from flylog.metrics.result import run_facts
 from flylog.metrics.true_depth import views_at
+from flylog.sources import input_at
 
 BINS = 10  # equal-width confidence bins of the ECE and the reliability table
 _BATCH = 32  # snapshots whose true views render together
@@ -80,20 +84,16 @@ def default_engine_digest() -> str:
 
 def labelled_run(run: str | Path, log: str | Path, config: MetricsConfig) -> Labelled:
     """Every valid fly of ``run``'s snapshots that ``log``'s truth judges, labelled."""
-    from flylog.metrics.image_run import has_image_truth
-
     reader = open_log(run)
     if contract.FLIES not in reader.topics():
         msg = f"{run} has no {contract.FLIES} topic: nothing to calibrate on"
         raise LogError(msg)
-    if has_image_truth(log):
+    if input_at(log).image_truth():
         return _labelled_images(reader, Path(log), config)
     return _labelled_scene(reader, Path(log), config)
 
 
 def _rule(reader: LogReader, config: MetricsConfig) -> Any:
-    from flylog.metrics.score import run_facts
-
     return run_facts(reader, config).rule
 
 
@@ -109,8 +109,8 @@ def _judged(
 
 def _labelled_scene(reader: LogReader, log: Path, config: MetricsConfig) -> Labelled:
     from flylog.metrics.trajectory import PoseInterpolator
-    from flylog.metrics.truth import read_truth
     from flylog.metrics.view import TrueViews
+    from flylog.sources import read_truth
 
     truth = read_truth(log)
     rule = _rule(reader, config)
@@ -150,7 +150,7 @@ def _labelled_scene(reader: LogReader, log: Path, config: MetricsConfig) -> Labe
 
 def _labelled_images(reader: LogReader, log: Path, config: MetricsConfig) -> Labelled:
     from flylog.metrics.image_truth import read_disparity_truth, truth_at
-    from flylog.replay.inputs import log_rig
+    from flylog.sources.inputs import log_rig
 
     sensor = open_log(log)
     dataset = sensor.metadata().get(contract.DATASET_METADATA, {})
@@ -190,15 +190,14 @@ def reliability(p: np.ndarray, y: np.ndarray, bins: int = BINS) -> list[dict[str
     rows = []
     for b in range(bins):
         n = int(count[b])
-        rows.append(
-            {
-                "bin_low": b / bins,
-                "bin_high": (b + 1) / bins,
-                "flies": n,
-                "mean_confidence": sum_p[b] / n if n else math.nan,
-                "on_surface_share": sum_y[b] / n if n else math.nan,
-            }
-        )
+        values = {
+            "bin_low": b / bins,
+            "bin_high": (b + 1) / bins,
+            "flies": n,
+            "mean_confidence": sum_p[b] / n if n else math.nan,
+            "on_surface_share": sum_y[b] / n if n else math.nan,
+        }
+        rows.append(table_row(tables.RELIABILITY_COLUMNS, values))
     return rows
 
 

@@ -299,6 +299,12 @@ def score_flies(
         )
         raise ValueError(msg)
     return score_snapshots(
-        [xyz], depth[None], ids[None], rig, n_obstacles, config,
-        flies=None if flies is None else [flies], block=block,
-    )[0]  # fmt: skip
+        [xyz],
+        depth[None],
+        ids[None],
+        rig,
+        n_obstacles,
+        config,
+        flies=None if flies is None else [flies],
+        block=block,
+    )[0]

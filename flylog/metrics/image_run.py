@@ -25,8 +25,8 @@ import numpy as np
 
 from flylog.baseline.config import SgbmConfig
 from flylog.config import from_mapping
-from flylog.errors import LogError
 from flylog.io import contract, open_log
+from flylog.io.tables import table_row
 from flylog.metrics import tables
 from flylog.metrics.config import MetricsConfig
 from flylog.metrics.flies import f_score
@@ -38,34 +38,8 @@ from flylog.metrics.image_truth import (
     score_dense,
     score_points,
 )
-from flylog.metrics.truth import SCENE_ATTACHMENT
-
-IMAGE_TRUTH = (contract.TRUTH_DISPARITY, contract.TRUTH_DEPTH)
-
-
-def has_image_truth(log: str | Path) -> bool:
-    """The log carries ground-truth disparity or depth images and no scene to render. An
-    imported dataset's log without them (a KITTI odometry or EuRoC sequence: true poses
-    only) cannot be scored: :class:`LogError` saying what it holds. A ROS 2 bag carries no
-    such images."""
-    from flylog.ros2 import is_bag
-
-    if is_bag(Path(log)):
-        return False
-    reader = open_log(log)
-    topics = reader.topics()
-    images = any(t in topics for t in IMAGE_TRUTH)
-    if not images and contract.DATASET_METADATA in reader.metadata():
-        held = ", ".join(f"{t} ({topics[t].count})" for t in sorted(topics))
-        msg = (
-            f"{log} is an imported dataset's log without {contract.TRUTH_DISPARITY} or "
-            f"{contract.TRUTH_DEPTH}; it holds {held}. flylog metrics scores imported logs "
-            "against ground-truth disparity or depth images only (the run's trajectory "
-            f"is scored on simulated logs, whose {contract.ODOM} and scene an imported log "
-            "lacks)"
-        )
-        raise LogError(msg)
-    return images and not any(a.name == SCENE_ATTACHMENT for a in reader.attachments())
+from flylog.metrics.result import MetricsResult, run_facts
+from flylog.sources.inputs import log_rig
 
 
 def _median(values: np.ndarray) -> float:
@@ -87,14 +61,20 @@ def error_columns(score: ImageScore) -> dict[str, float]:
     }
 
 
-def _empty(columns: tuple[tables.Column, ...]) -> dict[str, Any]:
-    return {c.name: None for c in columns}
+def _row(columns: tuple[tables.Column, ...], **values: Any) -> dict[str, Any]:
+    """A row of ``columns``: ``values``, nulls elsewhere (ValueError for a value of no
+    column)."""
+    return table_row(columns, {**{c.name: None for c in columns}, **values})
 
 
 def _sgbm_dense(
-    log: Path, config: SgbmConfig, stamps: np.ndarray, truth: list[np.ndarray], rig: Any,
+    log: Path,
+    config: SgbmConfig,
+    stamps: np.ndarray,
+    truth: list[np.ndarray],
+    rig: Any,
     metrics: MetricsConfig,
-) -> dict[str, float]:  # fmt: skip
+) -> dict[str, float]:
     """The dense map's columns: SGBM on each ground-truth frame, pooled over them."""
     from flylog.baseline.sgbm import disparity_px, grey_levels, stereo_matcher
 
@@ -122,11 +102,8 @@ def _sgbm_dense(
     }
 
 
-def score_image_run(run: str | Path, log: str | Path, config: MetricsConfig) -> Any:
+def score_image_run(run: str | Path, log: str | Path, config: MetricsConfig) -> MetricsResult:
     """Score ``run`` against ``log``'s ground-truth disparity (a MetricsResult)."""
-    from flylog.metrics.score import MetricsResult, run_facts
-    from flylog.replay.inputs import log_rig
-
     wall0 = time.perf_counter()
     reader, sensor = open_log(run), open_log(log)
     facts = run_facts(reader, config)
@@ -151,8 +128,8 @@ def score_image_run(run: str | Path, log: str | Path, config: MetricsConfig) -> 
                 continue
             score = score_points(cloud.xyz[keep], truth.images[k], rig, config)
             last[k] = score
-            row = _empty(tables.SNAPSHOT_COLUMNS)
-            row.update(
+            row = _row(
+                tables.SNAPSHOT_COLUMNS,
                 stamp_ns=m.log_time_ns,
                 t_s=(m.log_time_ns - t0) / 1e9,
                 flies=len(cloud.xyz),
@@ -186,8 +163,8 @@ def score_image_run(run: str | Path, log: str | Path, config: MetricsConfig) -> 
         disparity_errors=np.concatenate([s.disparity_errors for s in scores] or [np.empty(0)]),
         depth_errors=np.concatenate([s.depth_errors for s in scores] or [np.empty(0)]),
     )
-    summary = _empty(tables.SUMMARY_COLUMNS)
-    summary.update(
+    summary = _row(
+        tables.SUMMARY_COLUMNS,
         run=str(run),
         log=str(log),
         snapshots=len(rows),

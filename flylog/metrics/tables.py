@@ -20,7 +20,7 @@ import pyarrow.parquet as pq
 from flylog.errors import LogError, OutputError
 from flylog.io.atomic import Batch
 from flylog.io.inputs import input_path
-from flylog.io.tables import Column, TableWriter, schema
+from flylog.io.tables import Column, TableWriter, schema, table_row
 
 SUMMARY_SUFFIX = ".summary.parquet"
 OBSTACLES_SUFFIX = ".obstacles.parquet"
@@ -146,7 +146,7 @@ def write_table(
 ) -> None:
     with TableWriter(path, schema(columns), metadata=metadata, batch=batch) as table:
         for row in rows:
-            table.append({c.name: clean(row[c.name]) for c in columns})
+            table.append({k: clean(v) for k, v in table_row(columns, row).items()})
 
 
 def check_output_name(path: Path) -> None:

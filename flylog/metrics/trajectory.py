@@ -14,31 +14,9 @@ Poses are ``(N, 3)`` arrays of x (m), y (m), theta (rad) with ``(N,)`` int64 tim
 
 from __future__ import annotations
 
-from typing import NamedTuple
-
 import numpy as np
 
-
-class Trajectory(NamedTuple):
-    """Planar poses in time order: times (N,) int64 ns and poses (N, 3) x, y, theta."""
-
-    t_ns: np.ndarray
-    xyt: np.ndarray
-
-    def __len__(self) -> int:
-        return int(self.t_ns.shape[0])
-
-    @property
-    def xy(self) -> np.ndarray:
-        return self.xyt[:, :2]
-
-
-def trajectory(t_ns: list[int] | np.ndarray, xyt: list[tuple] | np.ndarray) -> Trajectory:
-    """A Trajectory from lists, sorted by time (stable)."""
-    t = np.asarray(t_ns, dtype=np.int64).reshape(-1)
-    p = np.asarray(xyt, dtype=float).reshape(-1, 3)
-    order = np.argsort(t, kind="stable")
-    return Trajectory(t[order], p[order])
+from flylog.sources.trajectory import Trajectory
 
 
 def wrap(angles: np.ndarray) -> np.ndarray:

@@ -17,12 +17,11 @@ from pathlib import Path
 import numpy as np
 
 from flylog.errors import LogError
-from flylog.io import contract, open_log
+from flylog.io import contract
 from flylog.io.atomic import write_text
 from flylog.io.collisions import Role, check_outputs
-from flylog.metrics.trajectory import Trajectory, trajectory
-from flylog.metrics.truth import read_odom_tf, read_poses, recorded_trajectories
-from flylog.ros2.detect import is_bag
+from flylog.sources import input_at
+from flylog.sources.trajectory import Trajectory
 
 # The trajectories a file may hold, each written to NAME.tum.
 TUM_NAMES = ("true", "odom", "planned")
@@ -46,44 +45,6 @@ def write_tum(path: Path, traj: Trajectory) -> None:
     write_text(path, tum_text(traj), encoding="ascii")
 
 
-def planned_trajectory(path: str | Path) -> Trajectory:
-    """The first pose of each ``/planner/path`` message, at its log time."""
-    times, poses = [], []
-    for m in open_log(path).messages([contract.PLANNER_PATH]):
-        if len(m.value):
-            times.append(m.log_time_ns)
-            poses.append(tuple(m.value[0]))
-    return trajectory(times, poses)
-
-
-def log_trajectories(path: str | Path) -> dict[str, Trajectory]:
-    """name (true, odom, planned) → trajectory, for those the file (or ROS 2 bag) holds."""
-    if is_bag(path):
-        from flylog.ros2.truth import bag_trajectories
-
-        return bag_trajectories(path)
-    reader = open_log(path)
-    present = reader.topics()
-    out: dict[str, Trajectory] = {}
-    pose_topics = [t for t in (contract.TRUTH_POSE, contract.ODOM) if t in present]
-    found = recorded_trajectories(reader) or (
-        read_poses(reader, pose_topics) if pose_topics else {}
-    )
-    if contract.TRUTH_POSE in found:
-        out["true"] = found[contract.TRUTH_POSE]
-    if contract.ODOM in found:
-        out["odom"] = found[contract.ODOM]
-    elif contract.TF in present:
-        odom = read_odom_tf(reader)
-        if len(odom):
-            out["odom"] = odom
-    if contract.PLANNER_PATH in present:
-        planned = planned_trajectory(path)
-        if len(planned):
-            out["planned"] = planned
-    return out
-
-
 def export_tum(path: str | Path, out_dir: str | Path) -> dict[str, Path]:
     """Write ``true.tum``, ``odom.tum``, ``planned.tum`` (those present) into ``out_dir``
     (created if needed); returns name → written path. LogError if there is none."""
@@ -92,7 +53,7 @@ def export_tum(path: str | Path, out_dir: str | Path) -> dict[str, Path]:
         [Role(Path(path), "the source", "path")],
         [Role(out_dir / f"{name}.tum", f"the {name} trajectory", "out_dir") for name in TUM_NAMES],
     )
-    trajectories = log_trajectories(path)
+    trajectories = input_at(path).trajectories()
     if not trajectories:
         msg = (
             f"{path} holds no trajectory: none of {contract.TRUTH_POSE}, {contract.ODOM}, "

@@ -10,6 +10,7 @@ reported STUCK for ``planner.stuck_timeout`` seconds without a break.
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 
 from flylog.config import to_mapping
 from flylog.geometry import Pose2D, StereoRig
@@ -18,6 +19,7 @@ from flylog.replay.clock import VirtualClock
 from flylog.replay.config import ReplayConfig
 from flylog.replay.pipeline import FlyPipeline, Write
 from flylog.replay.run import clock_config
+from flylog.scene.load import Scene
 
 
 class PlannerDriver:
@@ -94,3 +96,14 @@ class PlannerDriver:
             "ending": ending,
             "stuck_for": repr(stuck_for),
         }
+
+
+def planner_driver(config: ReplayConfig) -> Callable[[Scene, Write], PlannerDriver]:
+    """The ``make_driver`` that :func:`flylog.sim.run.simulate` takes for a closed loop: the
+    engine and the planner, with ``config``, drive the robot from the scene's start pose to
+    its goal, seeing through the scene's camera."""
+
+    def make_driver(scene: Scene, write: Write) -> PlannerDriver:
+        return PlannerDriver(config, scene.spec.camera, scene.start_pose, scene.goal, write)
+
+    return make_driver

@@ -3,8 +3,8 @@ rates against the scene's camera, its snapshots and grids against the limits."""
 
 from __future__ import annotations
 
-from flylog.budget import check_sampling_rates, replay_estimate
 from flylog.replay.config import ReplayConfig
+from flylog.replay.estimate import check_sampling_rates, replay_estimate
 from flylog.scene.load import Scene
 from flylog.sim.run import SimulationOptions, effective_scene, simulation_duration
 

@@ -17,6 +17,7 @@ from flylog.fly.fusion import moved_by_odometry
 from flylog.fly.population import Population
 from flylog.geometry import Pose2D, StereoRig, relative, transform_points_2d
 from flylog.io import contract, encode
+from flylog.io.tables import Column, table_row
 from flylog.planner import HarmonicPlanner
 from flylog.planner.obstacles import sonar_arc_points
 from flylog.planner.sonar_free import free_cones
@@ -25,6 +26,31 @@ from flylog.replay.obstacle_cache import Evidence
 from flylog.replay.overlay import fly_overlay
 from flylog.replay.worker import Outputs
 from flylog.sensors import OdomReading, SonarReading, StereoPair
+
+# pyarrow type names: pyarrow is imported with the first row (flylog.io.tables)
+_F, _I, _S = "float64", "int64", "string"
+
+# RUN.parquet: one row per planner tick (the README's table is made from this).
+STEP_COLUMNS = (
+    Column("t_s", _F, "s", "log time of the planner tick"),
+    Column("generation", _I, "", "generations (sgbm: frames matched) behind what the planner saw"),
+    Column("evaluations", _I, "", "fitness evaluations so far (sgbm: the distinctness test's)"),
+    Column("valid_flies", _I, "", "flies inside both images, with positive fitness (sgbm: points)"),
+    Column("obstacle_flies", _I, "", "flies taken for obstacles (the [obstacles] rule)"),
+    Column("best_fitness", _F, "", "best fitness of the population the planner saw"),
+    Column("median_fitness", _F, "", "median fitness of its valid flies"),
+    Column(
+        "image_latency_s", _F, "s", "tick time − stamp of the images those flies were scored on"
+    ),
+    Column("odom_latency_s", _F, "s", "tick time − stamp of the newest odometry"),
+    Column("x_m", _F, "m", "odometric position x"),
+    Column("y_m", _F, "m", "odometric position y"),
+    Column("theta_rad", _F, "rad", "odometric heading"),
+    Column("linear_m_s", _F, "m/s", "commanded linear velocity"),
+    Column("angular_rad_s", _F, "rad/s", "commanded angular velocity"),
+    Column("status", _S, "", "planner status: driving, goal_reached or stuck"),
+    Column("potential_change", _F, "", "largest change of the tick's last SOR sweep"),
+)
 
 
 @dataclass(frozen=True)
@@ -120,7 +146,7 @@ class PlannerJobs:
         if not self._rows:
             return Outputs(messages, command)
         valid = pop.fitness[pop.fitness > 0] if pop is not None else np.empty(0)
-        row = {
+        values = {
             "t_s": t_ns / 1e9,
             "generation": seen.generation,
             "evaluations": tick.evaluations,
@@ -140,7 +166,7 @@ class PlannerJobs:
             "status": status.value,
             "potential_change": change,
         }
-        return Outputs(messages, command, row)
+        return Outputs(messages, command, table_row(STEP_COLUMNS, values))
 
     def _echoes(self, sonar: tuple[SonarReading, Pose2D] | None) -> np.ndarray | None:
         """The sonar reading's near echoes (planner.sonar_range) as arc points in odom, for
@@ -201,16 +227,23 @@ class PlannerJobs:
         map, now."""
         ox, oy = self.planner.origin
         grid = encode.grid(
-            self.planner.potential, Pose2D(ox, oy, 0.0), self.planner.cell_size, t_ns,
+            self.planner.potential,
+            Pose2D(ox, oy, 0.0),
+            self.planner.cell_size,
+            t_ns,
             contract.ODOM_FRAME,
-        )  # fmt: skip
+        )
         path = encode.poses_in_frame(
             path_poses(self.planner.path(robot_pose)), t_ns, contract.ODOM_FRAME
         )
         occupancy = encode.occupancy_grid(
-            self.planner.detected_mask, self.planner.obstacle_mask, Pose2D(ox, oy, 0.0),
-            self.planner.cell_size, t_ns, contract.ODOM_FRAME,
-        )  # fmt: skip
+            self.planner.detected_mask,
+            self.planner.obstacle_mask,
+            Pose2D(ox, oy, 0.0),
+            self.planner.cell_size,
+            t_ns,
+            contract.ODOM_FRAME,
+        )
         return [
             (contract.PLANNER_POTENTIAL, t_ns, grid),
             (contract.PLANNER_PATH, t_ns, path),

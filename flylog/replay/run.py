@@ -10,23 +10,22 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from flylog.budget import DEFAULT_LIMITS, Limits, check_sampling_rates, replay_estimate
+from flylog.budget import DEFAULT_LIMITS, Limits
 from flylog.config import to_mapping
 from flylog.io import contract
 from flylog.io.atomic import Batch
 from flylog.io.collisions import Role, check_outputs
 from flylog.io.fingerprint import log_fingerprint
-from flylog.io.tables import Column, TableWriter
+from flylog.io.tables import TableWriter
 from flylog.io.writer import Compression, LogWriter
 from flylog.replay.clock import ClockConfig, VirtualClock
 from flylog.replay.config import ReplayConfig
+from flylog.replay.estimate import check_sampling_rates, replay_estimate
 from flylog.replay.pipeline import PLANNER_TICK, SNAPSHOT_TICK, FlyPipeline
-from flylog.replay.source import (
-    PLANNER_OFF,
-    READ_AHEAD_MESSAGES,
-    open_source,
-)
+from flylog.replay.planner_jobs import STEP_COLUMNS
 from flylog.ros2.config import BagOptions
+from flylog.sources import input_at
+from flylog.sources.stream import PLANNER_OFF, READ_AHEAD_MESSAGES
 
 # The run log is written with zstd chunks: its bulk is float32 potentials and fly clouds,
 # which zstd shrinks to 0.71 (lz4: 0.90) of their size; on the corridor's 6 s at 640×480
@@ -37,31 +36,6 @@ RUN_COMPRESSION = Compression.ZSTD
 PROGRESS_STEP_NS = 100_000_000
 
 __all__ = ["READ_AHEAD_MESSAGES", "ReplaySummary", "clock_config", "replay", "table_path"]
-
-# pyarrow type names: pyarrow is imported with the first row (flylog.io.tables)
-_F, _I, _S = "float64", "int64", "string"
-
-# RUN.parquet: one row per planner tick (the README's table is made from this).
-STEP_COLUMNS = (
-    Column("t_s", _F, "s", "log time of the planner tick"),
-    Column("generation", _I, "", "generations (sgbm: frames matched) behind what the planner saw"),
-    Column("evaluations", _I, "", "fitness evaluations so far (sgbm: the distinctness test's)"),
-    Column("valid_flies", _I, "", "flies inside both images, with positive fitness (sgbm: points)"),
-    Column("obstacle_flies", _I, "", "flies taken for obstacles (the [obstacles] rule)"),
-    Column("best_fitness", _F, "", "best fitness of the population the planner saw"),
-    Column("median_fitness", _F, "", "median fitness of its valid flies"),
-    Column(
-        "image_latency_s", _F, "s", "tick time − stamp of the images those flies were scored on"
-    ),
-    Column("odom_latency_s", _F, "s", "tick time − stamp of the newest odometry"),
-    Column("x_m", _F, "m", "odometric position x"),
-    Column("y_m", _F, "m", "odometric position y"),
-    Column("theta_rad", _F, "rad", "odometric heading"),
-    Column("linear_m_s", _F, "m/s", "commanded linear velocity"),
-    Column("angular_rad_s", _F, "rad/s", "commanded angular velocity"),
-    Column("status", _S, "", "planner status: driving, goal_reached or stuck"),
-    Column("potential_change", _F, "", "largest change of the tick's last SOR sweep"),
-)
 
 
 @dataclass(frozen=True)
@@ -143,7 +117,7 @@ def replay(
         [Role(Path(log), "the sensor log", "log")],
         [Role(Path(output), "the run", "output"), Role(table, "the step table", "output")],
     )
-    source = open_source(Path(log), goal=goal, bag=bag)
+    source = input_at(log).replay_source(goal=goal, bag=bag)
     inputs = source.inputs
     fingerprint = log_fingerprint(log)
     duration = (inputs.end_ns - inputs.start_ns) / 1e9

@@ -46,8 +46,8 @@ def fly_errors(run: Path, log: Path) -> tuple[list[FlyErrors], Any, Any]:
     from flylog.io import contract, open_log
     from flylog.metrics.config import MetricsConfig
     from flylog.metrics.image_truth import read_disparity_truth, truth_at
-    from flylog.metrics.score import run_facts
-    from flylog.replay.inputs import log_rig
+    from flylog.metrics.result import run_facts
+    from flylog.sources.inputs import log_rig
 
     reader, sensor = open_log(run), open_log(log)
     dataset = sensor.metadata().get(contract.DATASET_METADATA, {})

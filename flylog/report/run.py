@@ -17,6 +17,7 @@ import numpy as np
 from flylog.errors import LogError
 from flylog.io.inputs import input_path
 from flylog.report.html import Page, write_page
+from flylog.sources import input_at
 
 # Left frames shown, evenly spread over the run's snapshots, each this wide (inches at the
 # figures' 80 dpi: 560 px, two a row), and the map's width.
@@ -119,7 +120,7 @@ def _snapshots(run: Path) -> tuple[np.ndarray, list[np.ndarray], list[np.ndarray
     the run's own obstacle rule."""
     from flylog.io import contract, open_log
     from flylog.metrics.config import MetricsConfig
-    from flylog.metrics.score import run_facts
+    from flylog.metrics.result import run_facts
 
     reader = open_log(run)
     rule = run_facts(reader, MetricsConfig()).rule
@@ -262,7 +263,6 @@ def run_report(run: Path, log: Path | None, output: Path, *, metrics: Path | Non
     ``log``) scored against the truth of ``log``, or with the tables of ``metrics`` (a
     ``flylog metrics -o`` output of that run). A run on an imported dataset's log is drawn
     against its ground-truth disparity (flylog.report.dataset)."""
-    from flylog.metrics.image_run import has_image_truth
     from flylog.report.reliability import reliability_section
 
     run, log = Path(run), Path(log if log is not None else run)
@@ -274,7 +274,7 @@ def run_report(run: Path, log: Path | None, output: Path, *, metrics: Path | Non
     sgbm = config.get("stereo") == "sgbm"
     page = Page(f"flylog run {run.name}")
     with tempfile.TemporaryDirectory(prefix="flylog-report-") as tmp:
-        if has_image_truth(log):
+        if input_at(log).image_truth():
             _dataset_page(page, run, log, summary, config, Path(tmp), sgbm)
         else:
             _scene_page(page, run, log, summary, snapshots, config, Path(tmp), sgbm)
@@ -332,8 +332,8 @@ def _scene_page(
 ) -> None:
     from flylog.experiments import plots
     from flylog.experiments.runs import trajectories
-    from flylog.metrics.truth import read_truth
     from flylog.replay.run import table_path
+    from flylog.sources import read_truth
 
     truth = read_truth(log)
     _, true_xyt, odom_xyt = trajectories(log)

@@ -54,9 +54,15 @@ def camera_model(msg: Any) -> CameraModel:
         text = "CameraInfo has an all-zero P: the camera is not calibrated"
         raise LogError(text)
     return CameraModel(
-        int(msg.width), int(msg.height), K, D, R, P, str(msg.distortion_model),
+        int(msg.width),
+        int(msg.height),
+        K,
+        D,
+        R,
+        P,
+        str(msg.distortion_model),
         str(msg.header.frame_id),
-    )  # fmt: skip
+    )
 
 
 class Rectifier:
@@ -123,10 +129,16 @@ def rig_from_calibration(
         raise LogError(msg)
     left_mount, right_mount = mounts
     return calibrated_rig(
-        (left.width, left.height), left.P, right.P, _rectified(left, left_mount),
-        None if right_mount is None else _rectified(right, right_mount), frame_rate,
-        where=where, calibration=calibration, transforms=transforms,
-    )  # fmt: skip
+        (left.width, left.height),
+        left.P,
+        right.P,
+        _rectified(left, left_mount),
+        None if right_mount is None else _rectified(right, right_mount),
+        frame_rate,
+        where=where,
+        calibration=calibration,
+        transforms=transforms,
+    )
 
 
 def _rectified(camera: CameraModel, mount: Mount) -> Mount:

@@ -65,7 +65,7 @@ class ExportSummary:
     topics: int
 
 
-class Bag:
+class ExportBag:
     """A rosbags writer with connections made on first use."""
 
     def __init__(self, path: Path) -> None:
@@ -105,21 +105,21 @@ def export_ros2(
     reader = open_log(log)
     goal = reader.metadata().get(contract.SIMULATION_METADATA, {}).get("goal")
     with staged_directory(output) as directory:
-        bag = Bag(directory)
+        bag = ExportBag(directory)
         if goal is not None:
             bag.writer.set_custom_data(GOAL_KEY, json.dumps(json.loads(goal)))
         for attachment in reader.attachments() if truth else ():
             if attachment.name == SCENE_ATTACHMENT:
                 bag.writer.set_custom_data(SCENE_KEY, attachment.data.decode("utf-8"))
         with bag.writer:
-            Translation(bag, image_format).run(reader, truth, on_progress)
+            LogTranslation(bag, image_format).run(reader, truth, on_progress)
     return ExportSummary(output, bag.count, bag.topics)
 
 
-class Translation:
+class LogTranslation:
     """The flylog log's messages, one by one, as ROS 2 messages."""
 
-    def __init__(self, bag: Bag, image_format: ImageFormat) -> None:
+    def __init__(self, bag: ExportBag, image_format: ImageFormat) -> None:
         self.bag = bag
         self.fmt = image_format
         self.protobuf = DecoderFactory()
@@ -143,18 +143,24 @@ class Translation:
         self, reader: Any, truth: bool, on_progress: Callable[[float, float], None] | None
     ) -> None:
         topics = [
-            *contract.IMAGE_TOPICS.values(), *contract.CALIBRATION_TOPICS.values(),
-            contract.SONAR, contract.ODOM, contract.TF, *([contract.TRUTH_POSE] if truth else []),
-        ]  # fmt: skip
+            *contract.IMAGE_TOPICS.values(),
+            *contract.CALIBRATION_TOPICS.values(),
+            contract.SONAR,
+            contract.ODOM,
+            contract.TF,
+            *([contract.TRUTH_POSE] if truth else []),
+        ]
         present = set(reader.topics())
         if not {contract.LEFT_IMAGE, contract.RIGHT_IMAGE} <= present:
             msg = f"{reader.path} has no {contract.LEFT_IMAGE} and {contract.RIGHT_IMAGE}"
             raise LogError(msg)
         t0, span = reader.start_ns, max(1, reader.end_ns - reader.start_ns)
         handlers = {
-            contract.SONAR: self._sonar, contract.ODOM: self._odom, contract.TF: self._tf,
+            contract.SONAR: self._sonar,
+            contract.ODOM: self._odom,
+            contract.TF: self._tf,
             contract.TRUTH_POSE: self._truth,
-        }  # fmt: skip
+        }
         for i, raw in enumerate(reader.raw_messages([t for t in topics if t in present])):
             t, topic = raw.message.log_time, raw.channel.topic
             try:
@@ -180,19 +186,28 @@ class Translation:
 
     def _calibration(self, side: str, t: int, msg: Any) -> None:
         message = self.bag.build.camera_info(
-            stamp_ns(msg.timestamp), msg.frame_id, (msg.width, msg.height), list(msg.K),
-            list(msg.P), d=list(msg.D) or [0.0] * 5, r=list(msg.R) or np.eye(3).ravel().tolist(),
+            stamp_ns(msg.timestamp),
+            msg.frame_id,
+            (msg.width, msg.height),
+            list(msg.K),
+            list(msg.P),
+            d=list(msg.D) or [0.0] * 5,
+            r=list(msg.R) or np.eye(3).ravel().tolist(),
             model=msg.distortion_model or "plumb_bob",
-        )  # fmt: skip
+        )
         self.bag.write(info_topic(side), t, types.CAMERA_INFO, message)
 
     def _sonar(self, t: int, data: dict[str, Any]) -> None:
         stamp = stamp_ns(data["timestamp"])
         for i, value in enumerate(data["ranges"]):
             message = self.bag.build.range(
-                stamp, contract.sonar_frame(i), float("nan") if value is None else value,
-                data["cone_angle"], data.get("min_range", 0.0), data["max_range"],
-            )  # fmt: skip
+                stamp,
+                contract.sonar_frame(i),
+                float("nan") if value is None else value,
+                data["cone_angle"],
+                data.get("min_range", 0.0),
+                data["max_range"],
+            )
             self.bag.write(range_topic(i), t, types.RANGE, message)
 
     def _pose_odometry(self, topic: str, t: int, msg: Any) -> None:

@@ -93,9 +93,14 @@ class Builder:
         h, w = rgb.shape[:2]
         channels = 1 if grey else 3
         return self._t[types.IMAGE](
-            header=header, height=h, width=w, encoding=encoding, is_bigendian=0,
-            step=w * channels, data=np.ascontiguousarray(pixels).reshape(-1),
-        )  # fmt: skip
+            header=header,
+            height=h,
+            width=w,
+            encoding=encoding,
+            is_bigendian=0,
+            step=w * channels,
+            data=np.ascontiguousarray(pixels).reshape(-1),
+        )
 
     def camera_info(
         self,
@@ -113,21 +118,31 @@ class Builder:
             x_offset=0, y_offset=0, height=0, width=0, do_rectify=False
         )
         return self._t[types.CAMERA_INFO](
-            header=self.header(stamp_ns, frame_id), height=int(size[1]), width=int(size[0]),
-            distortion_model=model, d=np.asarray(d, dtype=np.float64),
-            k=np.asarray(k, dtype=np.float64), r=np.asarray(r, dtype=np.float64),
-            p=np.asarray(p, dtype=np.float64), binning_x=0, binning_y=0, roi=roi,
-        )  # fmt: skip
+            header=self.header(stamp_ns, frame_id),
+            height=int(size[1]),
+            width=int(size[0]),
+            distortion_model=model,
+            d=np.asarray(d, dtype=np.float64),
+            k=np.asarray(k, dtype=np.float64),
+            r=np.asarray(r, dtype=np.float64),
+            p=np.asarray(p, dtype=np.float64),
+            binning_x=0,
+            binning_y=0,
+            roi=roi,
+        )
 
     def range(
         self, stamp_ns: int, frame_id: str, value: float, cone: float, lo: float, hi: float
     ) -> Any:
         """A Range; NaN (no echo) is written as +inf (REP 117)."""
         return self._t[types.RANGE](
-            header=self.header(stamp_ns, frame_id), radiation_type=ULTRASOUND,
-            field_of_view=float(cone), min_range=float(lo), max_range=float(hi),
+            header=self.header(stamp_ns, frame_id),
+            radiation_type=ULTRASOUND,
+            field_of_view=float(cone),
+            min_range=float(lo),
+            max_range=float(hi),
             range=float("inf") if np.isnan(value) else float(value),
-        )  # fmt: skip
+        )
 
     def _vector(self, x: float, y: float, z: float) -> Any:
         return self._t["geometry_msgs/msg/Vector3"](x=float(x), y=float(y), z=float(z))
@@ -148,10 +163,11 @@ class Builder:
         )
         zeros = np.zeros(36, dtype=np.float64)
         return t[types.ODOMETRY](
-            header=self.header(stamp_ns, "odom"), child_frame_id=child,
+            header=self.header(stamp_ns, "odom"),
+            child_frame_id=child,
             pose=t["geometry_msgs/msg/PoseWithCovariance"](pose=pose, covariance=zeros),
             twist=t["geometry_msgs/msg/TwistWithCovariance"](twist=twist, covariance=zeros.copy()),
-        )  # fmt: skip
+        )
 
     def tf(
         self, stamp_ns: int, transforms: Sequence[tuple[str, str, Sequence[float], Sequence[float]]]

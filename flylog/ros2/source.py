@@ -93,11 +93,14 @@ class BagSource:
             found = self.tree.in_base(right.frame_id)
             right_mount = None if found is None else Mount(*found)
         return rig_from_calibration(
-            left, right, (Mount(*mount), right_mount), self._frame_rate(),
+            left,
+            right,
+            (Mount(*mount), right_mount),
+            self._frame_rate(),
             where=self.where,
             calibration=f"{self.roles.left_info} and {self.roles.right_info}",
             transforms=types.TF_STATIC,
-        )  # fmt: skip
+        )
 
     def _frame_rate(self) -> float:
         """Left images per second over the bag's span (as for a flylog log)."""

@@ -113,9 +113,14 @@ def assign_roles(bag: Path, topics: Mapping[str, TopicInfo], overrides: Mapping[
         msg = f"{bag}: cannot tell which topics to replay:\n  " + "\n  ".join(problems)
         raise LogError(msg, parameter="topics")
     return Roles(
-        chosen["left"], chosen["right"], infos["left"], infos["right"], odom, odom_from_tf,
+        chosen["left"],
+        chosen["right"],
+        infos["left"],
+        infos["right"],
+        odom,
+        odom_from_tf,
         sonars,
-    )  # fmt: skip
+    )
 
 
 def _odometry(

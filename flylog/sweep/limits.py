@@ -1,6 +1,7 @@
 """A sweep's bounds, checked from its spec before anything is planned or written: the
 number of cells, and the estimated size of what its cells and simulated inputs write (the
-estimates of :mod:`flylog.budget`, which bound ``flylog simulate`` and ``replay``)."""
+estimates of :mod:`flylog.budget` and :mod:`flylog.replay.estimate`, which bound ``flylog
+simulate`` and ``replay``)."""
 
 from __future__ import annotations
 
@@ -9,8 +10,9 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
-from flylog.budget import SWEEP_MAX_CELLS, SWEEP_MAX_OUTPUT_SIZE, replay_output_bytes, size_text
+from flylog.budget import SWEEP_MAX_CELLS, SWEEP_MAX_OUTPUT_SIZE, size_text
 from flylog.errors import FlylogError, LimitError
+from flylog.replay.estimate import replay_output_bytes
 from flylog.sweep.spec import Drive, SweepSpec
 
 

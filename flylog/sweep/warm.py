@@ -64,7 +64,7 @@ def warm_up(numba_threads: int) -> float:
     from flylog.config import replace_dotted
     from flylog.metrics.config import MetricsConfig
     from flylog.metrics.score import score_run
-    from flylog.replay.closed_loop import PlannerDriver
+    from flylog.replay.closed_loop import planner_driver
     from flylog.replay.config import ReplayConfig
     from flylog.replay.run import replay
     from flylog.scene.load import parse_scene
@@ -76,13 +76,10 @@ def warm_up(numba_threads: int) -> float:
     config = replace_dotted(ReplayConfig(), _WARM_SETTINGS)
     scene = parse_scene(_WARM_SCENE, source="warm-up scene")
 
-    def make_driver(scene, write):
-        return PlannerDriver(config, scene.spec.camera, scene.start_pose, scene.goal, write)
-
     with tempfile.TemporaryDirectory(prefix="flylog-warm-") as tmp:
         log = Path(tmp) / "warm.mcap"
         options = SimulationOptions(resolution=_WARM_RESOLUTION)
-        simulate(scene, log, options, make_driver=make_driver)
+        simulate(scene, log, options, make_driver=planner_driver(config))
         score_run(log, log, MetricsConfig())
         run = Path(tmp) / "replay.mcap"
         replay(log, run, config)

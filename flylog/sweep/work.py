@@ -66,13 +66,10 @@ def _simulate(task: SimulationTask) -> None:
         frame_rate=task.frame_rate,
     )
     make_driver = None
-    config = task.config
-    if config is not None:
-        from flylog.replay.closed_loop import PlannerDriver
+    if task.config is not None:
+        from flylog.replay.closed_loop import planner_driver
 
-        def make_driver(scene, write):
-            return PlannerDriver(config, scene.spec.camera, scene.start_pose, scene.goal, write)
-
+        make_driver = planner_driver(task.config)
     task.output.parent.mkdir(parents=True, exist_ok=True)
     simulate(scene, task.output, options, make_driver=make_driver)
 
@@ -98,7 +95,8 @@ def simulate_input(task: SimulationTask) -> str | None:
 
 
 def _metrics_row(cell: Cell, log: Path) -> dict[str, Any]:
-    from flylog.metrics.score import score_run, write_metrics
+    from flylog.metrics.score import score_run
+    from flylog.metrics.write import write_metrics
 
     result = score_run(cell.run, log, cell.metrics)
     write_metrics(result, cell.metrics_output)
@@ -149,9 +147,12 @@ def _run_cell(cell: Cell) -> dict[str, Any]:
             log = cell.log
         summary = _metrics_row(cell, log)
     except Exception as exc:
-        return {"status": STATUS_FAILED, "error": error_message(exc),
-                "cell_wall_s": time.perf_counter() - t0,
-                "cell_cpu_s": time.process_time() - cpu0}  # fmt: skip
+        return {
+            "status": STATUS_FAILED,
+            "error": error_message(exc),
+            "cell_wall_s": time.perf_counter() - t0,
+            "cell_cpu_s": time.process_time() - cpu0,
+        }
     timing = {"cell_wall_s": time.perf_counter() - t0, "cell_cpu_s": time.process_time() - cpu0}
     return {**summary, "status": STATUS_OK, "error": None, **timing}
 

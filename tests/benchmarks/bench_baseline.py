@@ -139,8 +139,12 @@ def _metrics_figures(out_dir: Path, sgbm_s: float, generations: int, evals_per_s
         results[name] = (run, summary)
     figures = []
     fs, ss = results["flies"][1], results["sgbm"][1]
-    for key, unit in (("precision", ""), ("recall", ""), ("f_score", ""),
-                      ("median_depth_error", "relative")):  # fmt: skip
+    for key, unit in (
+        ("precision", ""),
+        ("recall", ""),
+        ("f_score", ""),
+        ("median_depth_error", "relative"),
+    ):
         figures.append(
             {
                 "name": f"{key} flies, corridor {LOG_SECONDS:g} s 640x480",

@@ -33,11 +33,12 @@ from flylog.io import contract
 from flylog.io.reader import open_log
 from flylog.metrics.config import MetricsConfig
 from flylog.metrics.image_truth import read_disparity_truth, score_pixels, truth_at
-from flylog.metrics.score import run_facts, score_run
+from flylog.metrics.result import run_facts
+from flylog.metrics.score import score_run
 from flylog.replay.config import ReplayConfig, Stereo
-from flylog.replay.inputs import log_rig
 from flylog.replay.run import replay
 from flylog.sensors import StereoPair
+from flylog.sources.inputs import log_rig
 from tests.datasets.layouts import (
     write_euroc,
     write_kitti_multiview,
@@ -96,8 +97,15 @@ def _sgbm_at_flies(run: Path, log: Path) -> dict[str, float]:
     ru, rv = np.rint(u[known]).astype(int), np.rint(v[known]).astype(int)
     d = dense[rv, ru].astype(np.float64)
     matched = d >= 0
-    score = score_pixels(ru[matched], rv[matched], d[matched], rig.depth_of_disparity(d[matched]),
-                         truth, rig, MetricsConfig())  # fmt: skip
+    score = score_pixels(
+        ru[matched],
+        rv[matched],
+        d[matched],
+        rig.depth_of_disparity(d[matched]),
+        truth,
+        rig,
+        MetricsConfig(),
+    )
     return {
         "bad2": float(np.mean(score.disparity_errors > 2.0)),
         "matched": float(matched.mean()),
@@ -142,29 +150,69 @@ def _motorcycle_figures(out_dir: Path) -> list[dict]:
     sgbm_wall = runs["sgbm"].wall_seconds
     note = f"Motorcycle 741x500, flies {generations} generations vs 1 SGBM step, equal wall time"
     return [
-        {"name": "SgbmEngine.step motorcycle (median)", "value": sgbm_s * 1e3, "unit": "ms",
-         "note": f"min {min(step) * 1e3:.1f}, max {max(step) * 1e3:.1f} over {REPEATS}"},
-        {"name": "fly frame at equal compute (median)", "value": fly_s * 1e3, "unit": "ms",
-         "reference": "SgbmEngine.step", "ratio": fly_s / sgbm_s,
-         "note": f"5000 flies, {generations} generations, {evals} evaluations"},
-        {"name": "bad2 flies taken", "value": f["bad2"], "unit": "", "reference": "sgbm points",
-         "ratio": f["bad2"] / g["bad2"] if g["bad2"] else float("nan"),
-         "note": f"{f['scored_points']} flies scored; {note}"},
-        {"name": "bad2 SGBM at the flies' pixels", "value": at["bad2"], "unit": "",
-         "note": f"{at['pixels']:.0f} pixels, SGBM matched {at['matched']:.1%} of them"},
-        {"name": "bad2 SGBM points", "value": g["bad2"], "unit": "",
-         "note": f"{g['scored_points']} points scored"},
-        {"name": "bad2 SGBM dense, all ground-truth pixels", "value": g["sgbm_dense_bad2"],
-         "unit": "", "note": f"matched {g['sgbm_dense_density']:.1%} of the truth pixels"},
-        {"name": "coverage flies", "value": f["coverage"], "unit": "", "reference": "sgbm points",
-         "ratio": f["coverage"] / g["coverage"] if g["coverage"] else float("nan"),
-         "note": f"sgbm points {g['coverage']:.3f}"},
-        {"name": "median disparity error flies", "value": f["disparity_error_median_px"],
-         "unit": "px", "note": f"sgbm points {g['disparity_error_median_px']:.3f} px"},
-        {"name": "replay wall time flies", "value": runs["flies"].wall_seconds, "unit": "s",
-         "reference": "sgbm replay", "ratio": runs["flies"].wall_seconds / sgbm_wall,
-         "note": f"sgbm {runs['sgbm'].wall_seconds:.2f} s (log decoding and writing included)"},
-    ]  # fmt: skip
+        {
+            "name": "SgbmEngine.step motorcycle (median)",
+            "value": sgbm_s * 1e3,
+            "unit": "ms",
+            "note": f"min {min(step) * 1e3:.1f}, max {max(step) * 1e3:.1f} over {REPEATS}",
+        },
+        {
+            "name": "fly frame at equal compute (median)",
+            "value": fly_s * 1e3,
+            "unit": "ms",
+            "reference": "SgbmEngine.step",
+            "ratio": fly_s / sgbm_s,
+            "note": f"5000 flies, {generations} generations, {evals} evaluations",
+        },
+        {
+            "name": "bad2 flies taken",
+            "value": f["bad2"],
+            "unit": "",
+            "reference": "sgbm points",
+            "ratio": f["bad2"] / g["bad2"] if g["bad2"] else float("nan"),
+            "note": f"{f['scored_points']} flies scored; {note}",
+        },
+        {
+            "name": "bad2 SGBM at the flies' pixels",
+            "value": at["bad2"],
+            "unit": "",
+            "note": f"{at['pixels']:.0f} pixels, SGBM matched {at['matched']:.1%} of them",
+        },
+        {
+            "name": "bad2 SGBM points",
+            "value": g["bad2"],
+            "unit": "",
+            "note": f"{g['scored_points']} points scored",
+        },
+        {
+            "name": "bad2 SGBM dense, all ground-truth pixels",
+            "value": g["sgbm_dense_bad2"],
+            "unit": "",
+            "note": f"matched {g['sgbm_dense_density']:.1%} of the truth pixels",
+        },
+        {
+            "name": "coverage flies",
+            "value": f["coverage"],
+            "unit": "",
+            "reference": "sgbm points",
+            "ratio": f["coverage"] / g["coverage"] if g["coverage"] else float("nan"),
+            "note": f"sgbm points {g['coverage']:.3f}",
+        },
+        {
+            "name": "median disparity error flies",
+            "value": f["disparity_error_median_px"],
+            "unit": "px",
+            "note": f"sgbm points {g['disparity_error_median_px']:.3f} px",
+        },
+        {
+            "name": "replay wall time flies",
+            "value": runs["flies"].wall_seconds,
+            "unit": "s",
+            "reference": "sgbm replay",
+            "ratio": runs["flies"].wall_seconds / sgbm_wall,
+            "note": f"sgbm {runs['sgbm'].wall_seconds:.2f} s (log decoding and writing included)",
+        },
+    ]
 
 
 def _import_speed(out_dir: Path) -> list[dict]:
@@ -185,10 +233,21 @@ def _import_speed(out_dir: Path) -> list[dict]:
     write_kitti_sequence(
         root / "odometry", rig, frames, [Pose2D(0.1 * k, 0, 0) for k in range(IMPORT_PAIRS)]
     )
-    write_euroc(root / "euroc", dataclasses.replace(rig, mount_height=0.0), frames,
-                [(t, Pose2D(0.1 * k, 0, 0)) for k, t in enumerate(stamps)])  # fmt: skip
-    png = min(_times(lambda: (cv2.imread(str(mid / "scene0" / "im0.png")),
-                              cv2.imread(str(mid / "scene0" / "im1.png"))), 5))  # fmt: skip
+    write_euroc(
+        root / "euroc",
+        dataclasses.replace(rig, mount_height=0.0),
+        frames,
+        [(t, Pose2D(0.1 * k, 0, 0)) for k, t in enumerate(stamps)],
+    )
+    png = min(
+        _times(
+            lambda: (
+                cv2.imread(str(mid / "scene0" / "im0.png")),
+                cv2.imread(str(mid / "scene0" / "im1.png")),
+            ),
+            5,
+        )
+    )
     figures = []
     for name, layout, path in (
         ("middlebury", "middlebury", mid),
@@ -210,11 +269,16 @@ def _import_speed(out_dir: Path) -> list[dict]:
 
         best = min(_times(once, 3))
         pairs_s = IMPORT_PAIRS / best
-        figures.append({
-            "name": f"import {name}", "value": pairs_s, "unit": "pairs/s",
-            "reference": "reading the pair's 2 PNGs", "ratio": best / IMPORT_PAIRS / png,
-            "note": f"{IMPORT_PAIRS} pairs of 741x500 (best of 3); ratio: time a pair / PNGs",
-        })  # fmt: skip
+        figures.append(
+            {
+                "name": f"import {name}",
+                "value": pairs_s,
+                "unit": "pairs/s",
+                "reference": "reading the pair's 2 PNGs",
+                "ratio": best / IMPORT_PAIRS / png,
+                "note": f"{IMPORT_PAIRS} pairs of 741x500 (best of 3); ratio: time a pair / PNGs",
+            }
+        )
     return figures
 
 

@@ -12,11 +12,11 @@ import shutil
 import time
 from pathlib import Path
 
+from flylog.export.run_bag import export_run_ros2
 from flylog.fly import confidence
 from flylog.fly.snapshot_export import export_ply
 from flylog.io import open_log
 from flylog.ros2.export import export_ros2
-from flylog.ros2.run_export import export_run_ros2
 
 SCENE = Path(__file__).resolve().parents[2] / "fixtures" / "scenes" / "corridor.toml"
 

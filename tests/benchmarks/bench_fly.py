@@ -606,9 +606,9 @@ def _log_calls(log: Path, seconds: float) -> tuple[StereoRig, list[tuple[str, ob
     from flylog.io.reader import open_log
     from flylog.replay.clock import VirtualClock
     from flylog.replay.config import ReplayConfig
-    from flylog.replay.inputs import SENSOR_TOPICS, replay_inputs
     from flylog.replay.run import clock_config
     from flylog.sensors import OdomReading
+    from flylog.sources.inputs import SENSOR_TOPICS, replay_inputs
 
     reader = open_log(log)
     inputs = replay_inputs(reader, goal=None)

@@ -34,15 +34,16 @@ import numpy as np
 from flylog.geometry import Pose2D
 from flylog.io import contract, open_log
 from flylog.metrics.config import MetricsConfig
-from flylog.metrics.score import run_facts, score_run
+from flylog.metrics.result import run_facts
+from flylog.metrics.score import score_run
 from flylog.metrics.trajectory import PoseInterpolator
-from flylog.metrics.truth import read_truth
 from flylog.metrics.view import TrueViews, block_rig
 from flylog.replay.config import ReplayConfig
 from flylog.replay.run import replay
 from flylog.scene import load_scene
 from flylog.sim.render import Renderer
 from flylog.sim.run import SimulationOptions, simulate
+from flylog.sources import read_truth
 from tests.logcopy import copy_log
 
 SCENES = Path(__file__).resolve().parents[2] / "fixtures" / "scenes"

@@ -31,10 +31,16 @@ from flylog.sensors import StereoPair
 
 # The pair's calibration (Middlebury 2014 motorcycle, quarter size, as scikit-image ships it).
 RIG = StereoRig(
-    width=741, height=500, focal_px=994.978, baseline=0.193001,
-    principal_point=(311.193, 254.877), doffs=31.086,
-    mount_x=0.0, mount_y=0.0, mount_height=0.0,
-)  # fmt: skip
+    width=741,
+    height=500,
+    focal_px=994.978,
+    baseline=0.193001,
+    principal_point=(311.193, 254.877),
+    doffs=31.086,
+    mount_x=0.0,
+    mount_y=0.0,
+    mount_height=0.0,
+)
 TOLERANCE_PX = 2.0
 CELL_PX = 16
 CONDITIONS = ("as is", "right +25 %", "noise σ 5", "both")
@@ -74,8 +80,17 @@ def good_flies(xyz, fitness, truth, rig=RIG):
     return vi[known], ui[known], ok
 
 
-def run_flies(left, right, similarity: Similarity, *, flies=5000, generations=50, seed=0,
-              subpixel=True, rig=RIG):  # fmt: skip
+def run_flies(
+    left,
+    right,
+    similarity: Similarity,
+    *,
+    flies=5000,
+    generations=50,
+    seed=0,
+    subpixel=True,
+    rig=RIG,
+):
     """(xyz, fitness) after ``generations`` on the pair, the default configuration but the
     similarity and sub-pixel sampling."""
     config = EngineConfig(flies=flies, similarity=similarity, subpixel=subpixel)
@@ -107,8 +122,9 @@ def sgbm_seconds(left, right, repeats=5) -> float:
     return min(times)
 
 
-def generations_in(seconds, left, right, similarity, *, flies=5000, subpixel=True, probe=20,
-                   repeats=3, rig=RIG) -> int:  # fmt: skip
+def generations_in(
+    seconds, left, right, similarity, *, flies=5000, subpixel=True, probe=20, repeats=3, rig=RIG
+) -> int:
     """How many generations fit in ``seconds`` of wall time on the pair, with the engine's
     kernels warm: the best of ``repeats`` timings of a fresh pair's set-up and of ``probe``
     generations, the set-up charged once."""
@@ -146,8 +162,9 @@ def coverage(vi, ui, ok, truth) -> float:
     return float((held & known).sum() / known.sum())
 
 
-def table(seeds=(0, 1), generations=50, flies=5000, equal_compute=False,
-          variants=VARIANTS) -> list[dict]:  # fmt: skip
+def table(
+    seeds=(0, 1), generations=50, flies=5000, equal_compute=False, variants=VARIANTS
+) -> list[dict]:
     """One row per condition; ``equal_compute``: each variant runs as many generations as
     fit in SGBM's best wall time on that pair (``generations`` ignored), measured in this
     run, and the row gives them under "<variant> generations"."""
@@ -163,13 +180,21 @@ def table(seeds=(0, 1), generations=50, flies=5000, equal_compute=False,
         for similarity, subpixel in variants:
             key = similarity.value + (" sub-pixel" if subpixel else "")
             if equal_compute:
-                generations = generations_in(row["sgbm ms"] / 1e3, l_img, r_img, similarity,
-                                             flies=flies, subpixel=subpixel)  # fmt: skip
+                generations = generations_in(
+                    row["sgbm ms"] / 1e3, l_img, r_img, similarity, flies=flies, subpixel=subpixel
+                )
                 row[f"{key} generations"] = generations
             shares, at_same, cover = [], [], []
             for seed in seeds:
-                xyz, fit = run_flies(l_img, r_img, similarity, flies=flies, subpixel=subpixel,
-                                     generations=generations, seed=seed)  # fmt: skip
+                xyz, fit = run_flies(
+                    l_img,
+                    r_img,
+                    similarity,
+                    flies=flies,
+                    subpixel=subpixel,
+                    generations=generations,
+                    seed=seed,
+                )
                 vi, ui, ok = good_flies(xyz, fit, truth)
                 shares.append(ok.mean())
                 at_same.append(within(sgbm[vi, ui], truth[vi, ui]).mean())
@@ -186,8 +211,10 @@ def run(out_dir: Path) -> list[dict]:
     SGBM's wall time on the pair, and a figure per condition and measure for ``make bench``."""
     rows = table(equal_compute=True)
     keys = list(rows[0])
-    print("motorcycle 741×500, 5000 flies, generations in SGBM's wall time, mean of 2 seeds; "
-          "share within 2 px")  # fmt: skip
+    print(
+        "motorcycle 741×500, 5000 flies, generations in SGBM's wall time, mean of 2 seeds; "
+        "share within 2 px"
+    )
     print(" | ".join(keys))
     for row in rows:
         print(" | ".join([row["condition"]] + [f"{row[k]:.3f}" for k in keys[1:]]))

@@ -40,9 +40,7 @@ from flylog.planner.config import PlannerConfig
 from flylog.planner.grid import GridGeometry
 from flylog.planner.map import ObstacleMap
 from flylog.planner.planner import HarmonicPlanner
-from flylog.replay import run as replay_run
 from flylog.replay.config import ReplayConfig
-from flylog.replay.inputs import SENSOR_TOPICS
 from flylog.replay.obstacle_cache import Evidence
 from flylog.replay.pipeline import FlyPipeline
 from flylog.replay.planner_jobs import PlannerJobs
@@ -51,6 +49,8 @@ from flylog.replay.worker import OutputQueue
 from flylog.scene.load import load_scene
 from flylog.sensors import SonarConfig, SonarReading
 from flylog.sim.run import SimulationOptions, simulate
+from flylog.sources import Input
+from flylog.sources.inputs import SENSOR_TOPICS
 from tests.planner.references import cone_cells_numpy, dense_cells_numpy
 
 SCENES = Path(__file__).resolve().parents[2] / "fixtures" / "scenes"
@@ -84,8 +84,10 @@ def reference_log(out_dir: Path) -> Path:
 def _peak_rss_mb(log: Path, out: Path) -> float:
     done = subprocess.run(
         [sys.executable, "-c", _MEMORY_CHILD, str(log), str(out)],
-        capture_output=True, text=True, check=True,
-    )  # fmt: skip
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     return int(done.stdout.split()[-1]) / 1024.0
 
 
@@ -206,7 +208,7 @@ if sys.argv[2] == "tuned":
     from flylog.process import keep_large_blocks
     assert keep_large_blocks()
 from flylog.io import open_log
-from flylog.replay.inputs import SENSOR_TOPICS
+from flylog.sources.inputs import SENSOR_TOPICS
 from flylog.replay.run import READ_AHEAD_MESSAGES
 before = resource.getrusage(resource.RUSAGE_SELF)
 for _ in open_log(sys.argv[1]).messages(SENSOR_TOPICS, read_ahead=READ_AHEAD_MESSAGES):
@@ -275,8 +277,13 @@ def _overlay_encoding() -> dict:
 def _sdk_poses_in_frame(poses: np.ndarray, stamp_ns: int) -> bytes:
     """The path through the SDK, the reference: one SDK Pose per pose."""
     half = poses[:, 2] / 2.0
-    rows = zip(poses[:, 0].tolist(), poses[:, 1].tolist(), np.sin(half).tolist(),
-               np.cos(half).tolist(), strict=True)  # fmt: skip
+    rows = zip(
+        poses[:, 0].tolist(),
+        poses[:, 1].tolist(),
+        np.sin(half).tolist(),
+        np.cos(half).tolist(),
+        strict=True,
+    )
     pose, vector, quaternion = fm.Pose, fm.Vector3, fm.Quaternion
     return fm.PosesInFrame(
         timestamp=encode.timestamp(stamp_ns),
@@ -338,8 +345,9 @@ def _run_log_compression(run: Path, out_dir: Path) -> list[dict]:
                         ids[channel.id] = writer.register_channel(
                             channel.topic, channel.message_encoding, sid
                         )
-                    writer.add_message(ids[channel.id], message.log_time, message.data,
-                                       message.publish_time)  # fmt: skip
+                    writer.add_message(
+                        ids[channel.id], message.log_time, message.data, message.publish_time
+                    )
                 writer.finish()
             write_cpu = _cpu() - c0
             c0 = _cpu()
@@ -373,8 +381,10 @@ def _reading_allocator(log: Path) -> list[dict]:
         for mode in best:
             done = subprocess.run(
                 [sys.executable, "-c", _READ_CHILD, str(log), mode],
-                capture_output=True, text=True, check=True,
-            )  # fmt: skip
+                capture_output=True,
+                text=True,
+                check=True,
+            )
             cpu, faults = done.stdout.split()
             if float(cpu) < best[mode][0]:
                 best[mode] = (float(cpu), int(faults))
@@ -494,9 +504,12 @@ def _map_kernels() -> list[dict]:
     rows, cols = ObstacleMap(cfg, geometry).window(pose, cfg.view_range)
     sonar = SonarConfig()
     reading = SonarReading(
-        0, np.linspace(0.8, 3.5, 6), sonar.mounts(), math.radians(sonar.cone_deg),
+        0,
+        np.linspace(0.8, 3.5, 6),
+        sonar.mounts(),
+        math.radians(sonar.cone_deg),
         sonar.max_range,
-    )  # fmt: skip
+    )
     cones = sonar_free.free_cones(reading, pose, cfg.sonar_free_margin)
     rng = np.random.default_rng(2)
     weight = rng.poisson(0.3, geometry.shape) * rng.uniform(0.05, 1.0, geometry.shape)
@@ -581,14 +594,14 @@ class _Accounts:
 
     def waited_for_records(self, stack: contextlib.ExitStack) -> None:
         """Time the engine's thread waits for the next record of the reading thread."""
-        opened = replay_run.open_source
+        opened = Input.replay_source
 
-        def source(*args: Any, **kwargs: Any) -> Any:
-            found = opened(*args, **kwargs)
+        def source(opening: Input, **kwargs: Any) -> Any:
+            found = opened(opening, **kwargs)
             found.records = self._timed_records(found.records)
             return found
 
-        stack.enter_context(mock.patch.object(replay_run, "open_source", source))
+        stack.enter_context(mock.patch.object(Input, "replay_source", source))
 
     def _timed_records(self, records: Iterator[Any]) -> Iterator[Any]:
         while True:

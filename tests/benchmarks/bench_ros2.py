@@ -19,13 +19,13 @@ import numpy as np
 
 from flylog.geometry import Pose2D, StereoRig
 from flylog.io import LogWriter, contract, encode, open_log, pair_stereo
-from flylog.replay.inputs import SENSOR_TOPICS
 from flylog.replay.run import replay
 from flylog.ros2.config import BagOptions
 from flylog.ros2.export import export_ros2
 from flylog.ros2.messages import ImageFormat
 from flylog.ros2.source import BagSource
 from flylog.sensors import SonarConfig, SonarReading
+from flylog.sources.inputs import SENSOR_TOPICS
 from tests.benchmarks.bench_io import ODOM_HZ, SONAR_HZ, STEREO_HZ, SyntheticSensors
 from tests.benchmarks.bench_replay import REFERENCE, _log, reference_log
 

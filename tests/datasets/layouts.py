@@ -15,8 +15,16 @@ FOCAL, CX, CY, DOFFS, BASELINE_MM = 120.0, 47.25, 31.5, 4.5, 160.0
 DISPARITY = 8
 
 
-def calib_text(f: float, cx: float, cy: float, doffs: float, baseline_mm: float,
-               width: int, height: int, ndisp: int = 32) -> str:  # fmt: skip
+def calib_text(
+    f: float,
+    cx: float,
+    cy: float,
+    doffs: float,
+    baseline_mm: float,
+    width: int,
+    height: int,
+    ndisp: int = 32,
+) -> str:
     return (
         f"cam0=[{f} 0 {cx}; 0 {f} {cy}; 0 0 1]\n"
         f"cam1=[{f} 0 {cx + doffs}; 0 {f} {cy}; 0 0 1]\n"
@@ -81,8 +89,13 @@ def write_kitti_stereo(root: Path, rig, pairs, *, calib: str = "2015") -> None:
     "2015": image_2, image_3, calib_cam_to_cam (P_rect_02/03), disp_occ_0; "2015-calib":
     the same with calib (P2/P3); "2012": the grey image_0, image_1 and the colour
     colored_0, colored_1 (calib's P0/P1 and P2/P3: here the same cameras), disp_occ."""
-    write_kitti_multiview(root, rig, [[(10, left, right)] for left, right, _ in pairs],
-                          [d for *_, d in pairs], calib=calib)  # fmt: skip
+    write_kitti_multiview(
+        root,
+        rig,
+        [[(10, left, right)] for left, right, _ in pairs],
+        [d for *_, d in pairs],
+        calib=calib,
+    )
 
 
 def write_kitti_multiview(root: Path, rig, scenes, truths, *, calib: str = "2015") -> None:
@@ -188,10 +201,12 @@ def write_euroc(root: Path, rig, frames, truth) -> None:
         (cam / "data.csv").write_text("".join(lines))
     gt = mav / "state_groundtruth_estimate0"
     gt.mkdir()
-    rows = ["#timestamp, p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m], q_RS_w [], q_RS_x [], "
-            "q_RS_y [], q_RS_z [], v_RS_R_x [m s^-1], v_RS_R_y [m s^-1], v_RS_R_z [m s^-1], "
-            "b_w_RS_S_x [rad s^-1], b_w_RS_S_y [rad s^-1], b_w_RS_S_z [rad s^-1], "
-            "b_a_RS_S_x [m s^-2], b_a_RS_S_y [m s^-2], b_a_RS_S_z [m s^-2]\n"]  # fmt: skip
+    rows = [
+        "#timestamp, p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m], q_RS_w [], q_RS_x [], "
+        "q_RS_y [], q_RS_z [], v_RS_R_x [m s^-1], v_RS_R_y [m s^-1], v_RS_R_z [m s^-1], "
+        "b_w_RS_S_x [rad s^-1], b_w_RS_S_y [rad s^-1], b_w_RS_S_z [rad s^-1], "
+        "b_a_RS_S_x [m s^-2], b_a_RS_S_y [m s^-2], b_a_RS_S_z [m s^-2]\n"
+    ]
     for stamp, pose in truth:
         q = (np.cos(pose.theta / 2), 0.0, 0.0, np.sin(pose.theta / 2))
         values = [pose.x, pose.y, 0.0, *q] + [0.0] * 9

@@ -15,8 +15,8 @@ from flylog.geometry import Pose2D, compose
 from flylog.io import contract
 from flylog.io.reader import open_log
 from flylog.metrics.trajectory import PoseInterpolator
-from flylog.metrics.truth import read_truth
-from flylog.replay.inputs import log_rig
+from flylog.sources import read_truth
+from flylog.sources.inputs import log_rig
 from tests.datasets.layouts import camera_in_body, write_euroc
 
 CORRIDOR = Path(__file__).parents[2] / "fixtures" / "logs" / "corridor.mcap"

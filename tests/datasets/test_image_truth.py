@@ -16,8 +16,17 @@ def test_truth_is_linear_in_u_where_both_neighbours_are_known_else_the_rounded_p
     np.testing.assert_allclose(got, [10.5, 12.0, NAN, 20.0, 20.0, 1.0])
 
 
-RIG = StereoRig(width=64, height=48, focal_px=80.0, baseline=0.2, principal_point=(31.0, 23.5),
-                doffs=3.0, mount_height=0.0, mount_x=0.0, mount_y=0.0)  # fmt: skip
+RIG = StereoRig(
+    width=64,
+    height=48,
+    focal_px=80.0,
+    baseline=0.2,
+    principal_point=(31.0, 23.5),
+    doffs=3.0,
+    mount_height=0.0,
+    mount_x=0.0,
+    mount_y=0.0,
+)
 
 
 def _truth() -> np.ndarray:
@@ -63,6 +72,7 @@ def test_a_dense_map_is_scored_where_it_matched_and_truth_is_known():
     assert score.scored == 40 * 64 - 256
     assert np.all(score.disparity_errors == pytest.approx(1.5))
     u, v = np.array([31.0]), np.array([23.5])
-    one = score_pixels(u, v, np.array([6.0]), RIG.depth_of_disparity(np.array([6.0])), truth,
-                       RIG, MetricsConfig())  # fmt: skip
+    one = score_pixels(
+        u, v, np.array([6.0]), RIG.depth_of_disparity(np.array([6.0])), truth, RIG, MetricsConfig()
+    )
     assert one.scored == 1 and one.disparity_errors[0] == 0.0

@@ -81,8 +81,13 @@ MIDDLEBURY: list[tuple[str, Mutation, str]] = [
     ("grey left", _grey_left, "colour, but the left image"),
     ("calib not utf-8", lambda r: (r / "calib.txt").write_bytes(NOT_UTF8), "not UTF-8"),
 ]
-FILES = {"grey left": "im1.png", "pfm scale 0": "disp0.pfm", "pfm scale nan": "disp0.pfm",
-         "truth all unknown": "disp0.pfm", "truth all 0": "disp0.pfm"}  # fmt: skip
+FILES = {
+    "grey left": "im1.png",
+    "pfm scale 0": "disp0.pfm",
+    "pfm scale nan": "disp0.pfm",
+    "truth all unknown": "disp0.pfm",
+    "truth all 0": "disp0.pfm",
+}
 
 
 def _refused(args: list[str], out: Path, file: str, words: str) -> None:
@@ -195,14 +200,22 @@ EUROC: list[tuple[str, Mutation, str, str]] = [
     ("image size", _bigger_images, ".png", "sensor.yaml's resolution is 96×64"),
     ("colour right", _colour_right, ".png", "colour, but the left image"),
     ("same T_BS", _same_t_bs, "sensor.yaml", "T_BS put the cameras 0 m apart"),
-    ("text stamp", lambda m: (m / "cam0" / "data.csv").write_text("#t,f\nabc,0.png\n"),
-     "data.csv", "timestamp 'abc'"),
+    (
+        "text stamp",
+        lambda m: (m / "cam0" / "data.csv").write_text("#t,f\nabc,0.png\n"),
+        "data.csv",
+        "timestamp 'abc'",
+    ),
     ("empty truth", _truth_csv("#timestamp\n"), "data.csv", "empty"),
     ("3-column truth", _truth_csv("0,1,2\n"), "data.csv", "3 columns"),
     ("text truth stamp", _truth_csv("x,0,0,0,1,0,0,0\n"), "data.csv", "timestamp 'x'"),
-    ("sensor.yaml not utf-8", lambda m: (m / "cam0" / "sensor.yaml").write_bytes(NOT_UTF8),
-     "sensor.yaml", "not UTF-8"),
-]  # fmt: skip
+    (
+        "sensor.yaml not utf-8",
+        lambda m: (m / "cam0" / "sensor.yaml").write_bytes(NOT_UTF8),
+        "sensor.yaml",
+        "not UTF-8",
+    ),
+]
 
 
 @pytest.mark.parametrize(("name", "mutate", "file", "words"), EUROC, ids=[m[0] for m in EUROC])

@@ -15,9 +15,9 @@ from flylog.io import contract
 from flylog.io.reader import open_log
 from flylog.metrics.image_truth import read_disparity_truth
 from flylog.metrics.trajectory import PoseInterpolator
-from flylog.metrics.truth import read_truth
 from flylog.metrics.view import TrueViews
-from flylog.replay.inputs import log_rig
+from flylog.sources import read_truth
+from flylog.sources.inputs import log_rig
 from tests.datasets.layouts import write_kitti_multiview, write_kitti_sequence, write_kitti_stereo
 
 CORRIDOR = Path(__file__).parents[2] / "fixtures" / "logs" / "corridor.mcap"
@@ -46,9 +46,11 @@ def _grey(image):
 def test_the_stereo_layout_keeps_images_calibration_and_truth(simulated, tmp_path, calib):
     rig, pairs, _, disparities = simulated
     write_kitti_stereo(
-        tmp_path / "kitti", rig,
-        [(p.left, p.right, d) for p, d in zip(pairs, disparities, strict=True)], calib=calib,
-    )  # fmt: skip
+        tmp_path / "kitti",
+        rig,
+        [(p.left, p.right, d) for p, d in zip(pairs, disparities, strict=True)],
+        calib=calib,
+    )
     logs = import_dataset("kitti", tmp_path / "kitti", tmp_path / "out")
     assert [log.path.name for log in logs] == ["000000.mcap", "000001.mcap", "000002.mcap"]
     for log, pair, disparity in zip(logs, pairs, disparities, strict=True):
@@ -108,8 +110,9 @@ def test_a_folder_off_the_kitti_layouts_names_what_is_missing(simulated, tmp_pat
 
 def test_the_colour_pair_of_2012_has_no_ground_truth_of_its_own(simulated, tmp_path):
     rig, pairs, _, disparities = simulated
-    write_kitti_stereo(tmp_path / "k", rig, [(pairs[0].left, pairs[0].right, disparities[0])],
-                       calib="2012")  # fmt: skip
+    write_kitti_stereo(
+        tmp_path / "k", rig, [(pairs[0].left, pairs[0].right, disparities[0])], calib="2012"
+    )
     training = tmp_path / "k" / "training"
     for grey in ("image_0", "image_1"):
         for f in (training / grey).iterdir():
@@ -132,8 +135,10 @@ def multiview(simulated, tmp_path_factory):
     pose = PoseInterpolator(truth.true)(np.array([pairs[1].stamp_ns]))[0]
     d = rig.disparity(TrueViews(truth.scene, rig).view(Pose2D(*pose)).depth)
     disparity = np.where(np.isfinite(d) & (d > 0), d, np.nan).astype(np.float32)
-    scenes = [[(9 + k, p.left, p.right) for k, p in enumerate(pairs)],
-              [(10, pairs[0].left, pairs[0].right)]]  # fmt: skip
+    scenes = [
+        [(9 + k, p.left, p.right) for k, p in enumerate(pairs)],
+        [(10, pairs[0].left, pairs[0].right)],
+    ]
     root = tmp_path_factory.mktemp("multiview") / "kitti"
     write_kitti_multiview(root, rig, scenes, [disparity, None])
     return root, rig, pairs, disparity
@@ -166,8 +171,9 @@ def test_frames_imports_each_scene_as_a_10_hz_sequence_with_truth_at_frame_10(mu
 
 def test_frames_with_limit_and_scene_and_without_frames(multiview, tmp_path):
     root, _, pairs, _ = multiview
-    (two,) = import_dataset("kitti", root, tmp_path / "a.mcap", scene="000000", limit=2,
-                            multiview=True)  # fmt: skip
+    (two,) = import_dataset(
+        "kitti", root, tmp_path / "a.mcap", scene="000000", limit=2, multiview=True
+    )
     reader = open_log(two.path)
     assert [p.stamp_ns for p in reader.stereo_pairs()] == [900_000_000, 1_000_000_000]
     assert reader.topics()[contract.TRUTH_DISPARITY].count == 1

@@ -9,7 +9,7 @@ from flylog.errors import LogError
 from flylog.io import contract
 from flylog.io.reader import open_log
 from flylog.metrics.image_truth import read_disparity_truth
-from flylog.replay.inputs import log_rig
+from flylog.sources.inputs import log_rig
 from tests.datasets.layouts import (
     BASELINE_MM,
     CX,

@@ -15,8 +15,8 @@ from flylog.io.reader import open_log
 from flylog.metrics.image_truth import read_disparity_truth
 from flylog.metrics.score import score_run
 from flylog.replay.config import ReplayConfig, Stereo
-from flylog.replay.inputs import log_rig
 from flylog.replay.run import replay
+from flylog.sources.inputs import log_rig
 from tests.datasets.layouts import calib_text, write_kitti_stereo
 
 # Middlebury 2014 Motorcycle's calibration at the quarter size scikit-image ships (741×500).

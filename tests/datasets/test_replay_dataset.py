@@ -8,8 +8,8 @@ from flylog.io import contract
 from flylog.io.reader import open_log
 from flylog.metrics.score import score_run
 from flylog.replay.config import ReplayConfig
-from flylog.replay.inputs import DatasetLogWarning
 from flylog.replay.run import replay
+from flylog.sources.inputs import DatasetLogWarning
 from tests.datasets.layouts import write_middlebury_scene
 
 SMALL = dataclasses.replace(

@@ -18,8 +18,8 @@ from flylog.io.writer import LogWriter
 from flylog.metrics.image_truth import disparity_of_depth, read_disparity_truth
 from flylog.metrics.score import score_run
 from flylog.replay.config import ReplayConfig
-from flylog.replay.inputs import DatasetLogWarning, log_rig
 from flylog.replay.run import replay
+from flylog.sources.inputs import DatasetLogWarning, log_rig
 from tests.datasets.layouts import (
     plane_pair,
     write_kitti_multiview,
@@ -34,8 +34,16 @@ CONFIG = dataclasses.replace(
     engine=dataclasses.replace(ReplayConfig().engine, flies=600),
     generations_per_frame=20,
 )
-COLUMNS = ("scored_points", "precision", "recall", "coverage", "bad1", "bad2",
-           "disparity_error_median_px", "median_depth_error")  # fmt: skip
+COLUMNS = (
+    "scored_points",
+    "precision",
+    "recall",
+    "coverage",
+    "bad1",
+    "bad2",
+    "disparity_error_median_px",
+    "median_depth_error",
+)
 
 
 def _scores(log, run):

@@ -44,9 +44,12 @@ def written(tmp_path_factory) -> dict[str, Path]:
     for workers in (1, 2):
         out[f"pool of {workers}"] = tmp_path_factory.mktemp(f"pool{workers}")
         run_experiments(
-            NAMES, out[f"pool of {workers}"], TINY, workers=workers,
+            NAMES,
+            out[f"pool of {workers}"],
+            TINY,
+            workers=workers,
             on_progress=(lambda d, t: PROGRESS.append((d, t))) if workers == 2 else None,
-        )  # fmt: skip
+        )
     return out
 
 

@@ -8,8 +8,9 @@ import pytest
 from click.testing import CliRunner
 
 from flylog.cli.main import cli
-from flylog.experiments import EXPERIMENTS, run_experiment
+from flylog.experiments import EXPERIMENTS
 from flylog.experiments.common import ExperimentOptions, Spread
+from flylog.experiments.parallel import run_experiment
 
 TINY = ExperimentOptions(seeds=1, resolution=(96, 72), duration=1.0, flies=300)
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -92,8 +93,20 @@ def test_sonar_counts_the_post(results):
 
 
 def test_cli_runs_an_experiment_and_prints_its_table(tmp_path):
-    args = ["experiment", "sonar", "-o", str(tmp_path), "--seeds", "1", "--resolution",
-            "96x72", "--duration", "1", "--flies", "300"]  # fmt: skip
+    args = [
+        "experiment",
+        "sonar",
+        "-o",
+        str(tmp_path),
+        "--seeds",
+        "1",
+        "--resolution",
+        "96x72",
+        "--duration",
+        "1",
+        "--flies",
+        "300",
+    ]
     result = CliRunner().invoke(cli, args)
     assert result.exit_code == 0, result.output
     assert "with sonar fusion" in result.output

@@ -72,8 +72,12 @@ def test_a_fifo_is_refused_and_stays_a_fifo(tmp_path):
 @pytest.mark.parametrize("length", [245, 255])
 def test_a_long_legal_name_is_written_and_its_stale_parts_found(tmp_path, length):
     target = tmp_path / ("n" * (length - 5) + ".mcap")
-    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
-                          capture_output=True, text=True, check=True).stdout.strip()  # fmt: skip
+    dead = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.getpid())"],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout.strip()
     fd, part = atomic.temporary_beside(target)
     os.close(fd)
     assert len(part.name.encode()) <= atomic.NAME_MAX

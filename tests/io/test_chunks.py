@@ -32,8 +32,14 @@ def _chunk_bodies(path) -> list[bytes]:
 
 def _key(record) -> tuple:
     if isinstance(record, Message):
-        return ("m", record.channel_id, record.sequence, record.log_time, record.publish_time,
-                bytes(record.data))  # fmt: skip
+        return (
+            "m",
+            record.channel_id,
+            record.sequence,
+            record.log_time,
+            record.publish_time,
+            bytes(record.data),
+        )
     return (type(record).__name__, record.id)
 
 

@@ -136,7 +136,7 @@ def test_a_damaged_attachment_is_skipped_with_its_name(tmp_path):
 
 
 def test_a_damaged_scene_attachment_is_an_error_for_metrics_not_other_figures(tmp_path):
-    from flylog.metrics.truth import read_scene
+    from flylog.sources.truth import read_scene
 
     fixture = Path(__file__).resolve().parents[2] / "fixtures" / "logs" / "near-obstacle.mcap"
     data = bytearray(fixture.read_bytes())

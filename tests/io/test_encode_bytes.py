@@ -31,8 +31,13 @@ def sdk_poses_in_frame(poses, stamp_ns, frame_id) -> bytes:
     """The SDK's encoding of a path, the reference: one SDK Pose per pose."""
     poses = np.asarray(poses, float)
     half = poses[:, 2] / 2.0
-    rows = zip(poses[:, 0].tolist(), poses[:, 1].tolist(), np.sin(half).tolist(),
-               np.cos(half).tolist(), strict=True)  # fmt: skip
+    rows = zip(
+        poses[:, 0].tolist(),
+        poses[:, 1].tolist(),
+        np.sin(half).tolist(),
+        np.cos(half).tolist(),
+        strict=True,
+    )
     return fm.PosesInFrame(
         timestamp=encode.timestamp(stamp_ns),
         frame_id=frame_id,

@@ -12,10 +12,20 @@ DOOR = LIBRARY / "io" / "inputs.py"
 
 # Calls that read a file given its path or open one: method or function names.
 READING_ATTRIBUTES = {
-    "open", "read_text", "read_bytes", "imread", "read_table", "read_schema",
-    "read_metadata", "ParquetFile", "loadtxt", "genfromtxt", "fromfile", "AnyReader",
+    "open",
+    "read_text",
+    "read_bytes",
+    "imread",
+    "read_table",
+    "read_schema",
+    "read_metadata",
+    "ParquetFile",
+    "loadtxt",
+    "genfromtxt",
+    "fromfile",
+    "AnyReader",
     "make_reader",
-}  # fmt: skip
+}
 # Reads that are not a command's inputs, with the reason.
 NOT_INPUTS = {
     # `make docs`: the pages it regenerates, not a command

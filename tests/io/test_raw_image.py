@@ -29,9 +29,14 @@ def _messages() -> list[bytes]:
     rgb = rng.integers(0, 256, (5, 7, 3), dtype=np.uint8)
     mono = rng.integers(0, 256, (4, 6), dtype=np.uint8)
     bgr = fm.RawImage(
-        timestamp=encode.timestamp(12), frame_id="cam", width=3, height=2, encoding="bgr8",
-        step=11, data=bytes(range(22)),
-    )  # fmt: skip
+        timestamp=encode.timestamp(12),
+        frame_id="cam",
+        width=3,
+        height=2,
+        encoding="bgr8",
+        step=11,
+        data=bytes(range(22)),
+    )
     return [
         encode.raw_image(rgb, 1_000_000_123, "camera_left").encode(),
         encode.raw_image(mono, 5, "").encode(),

@@ -73,7 +73,7 @@ def test_every_column_with_a_unit_names_it() -> None:
     """Units in every Parquet column's name (t_s, true_x_m, theta_rad, linear_m_s), so a
     reader without the metadata still knows them; columns without a unit have no suffix."""
     from flylog.metrics.tables import OBSTACLE_COLUMNS, SNAPSHOT_COLUMNS
-    from flylog.replay.run import STEP_COLUMNS
+    from flylog.replay.planner_jobs import STEP_COLUMNS
     from flylog.sweep.results import HEAD_COLUMNS, TAIL_COLUMNS
 
     tables = (STEP_COLUMNS, SNAPSHOT_COLUMNS, SUMMARY_COLUMNS, OBSTACLE_COLUMNS)

@@ -4,9 +4,10 @@ from pathlib import Path
 
 import pytest
 
-from flylog.metrics.truth import LogTruth, read_truth
 from flylog.scene import load_scene, parse_scene
 from flylog.sim.run import SimulationOptions, simulate
+from flylog.sources import read_truth
+from flylog.sources.truth import LogTruth
 
 from .helpers import FIXTURES
 

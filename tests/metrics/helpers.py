@@ -12,8 +12,8 @@ from flylog.geometry import Pose2D
 from flylog.io import LogWriter, contract, encode
 from flylog.io.contract import CommandStatus
 from flylog.metrics.trajectory import interpolate_poses
-from flylog.metrics.truth import LogTruth
 from flylog.sim.render import Renderer
+from flylog.sources.truth import LogTruth
 
 FIXTURES = Path(__file__).resolve().parents[2] / "fixtures" / "scenes"
 RULE = {"quantile": 0.5, "ground_margin": 0.05}

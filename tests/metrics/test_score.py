@@ -11,7 +11,8 @@ from flylog.io import LogWriter, contract, encode
 from flylog.io.contract import CommandStatus
 from flylog.metrics import tables
 from flylog.metrics.config import MetricsConfig
-from flylog.metrics.score import score_run, write_metrics
+from flylog.metrics.score import score_run
+from flylog.metrics.write import write_metrics
 
 from .helpers import surface_flies, write_run
 
@@ -60,8 +61,9 @@ def test_half_of_the_obstacles_covered_gives_recall_about_one_half(sensor_log, t
     half = surface_flies(truth, t, keep=lambda u, v, ids: u < w // 2)
     s = score_run(write_run(tmp_path / "run.mcap", [(t, half)]), sensor_log).summary
     assert s["precision"] == 1.0
-    full = score_run(write_run(tmp_path / "full.mcap", [(t, surface_flies(truth, t))]),
-                     sensor_log).snapshots[0]  # fmt: skip
+    full = score_run(
+        write_run(tmp_path / "full.mcap", [(t, surface_flies(truth, t))]), sensor_log
+    ).snapshots[0]
     assert 0.3 < s["recall"] < 0.7
     assert s["recall"] == pytest.approx(
         result_cells(half, truth, t) / full["visible_cells"], abs=1e-12

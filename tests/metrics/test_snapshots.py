@@ -133,6 +133,7 @@ def test_batched_scores_do_not_depend_on_the_batch():
     xyzs = [_flies(rig, depth[k], ids[k], 4, rng) for k in range(4)]
     together = score_snapshots(xyzs, depth, ids, rig, 3, MetricsConfig(), block=4)
     for k in range(4):
-        alone = score_snapshots(xyzs[k : k + 1], depth[k : k + 1], ids[k : k + 1], rig, 3,
-                                MetricsConfig(), block=4)[0]  # fmt: skip
+        alone = score_snapshots(
+            xyzs[k : k + 1], depth[k : k + 1], ids[k : k + 1], rig, 3, MetricsConfig(), block=4
+        )[0]
         _assert_identical(together[k], alone)

@@ -14,8 +14,8 @@ from flylog.metrics.trajectory import (
     relative_poses,
     rpe_pairs,
     rpe_rmse,
-    trajectory,
 )
+from flylog.sources.trajectory import trajectory
 
 S = 1_000_000_000
 

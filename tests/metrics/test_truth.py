@@ -11,8 +11,9 @@ from flylog.io import contract, open_log
 from flylog.io.scan import TruncatedLogWarning
 from flylog.metrics.config import MetricsConfig
 from flylog.metrics.score import score_run
-from flylog.metrics.truth import TrajectorySource, read_poses, read_truth
 from flylog.metrics.tum import export_tum
+from flylog.sources import read_truth
+from flylog.sources.truth import TrajectorySource, read_poses
 from tests.logcopy import copy_log
 
 from .helpers import surface_flies, write_run

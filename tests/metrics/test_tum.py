@@ -9,8 +9,8 @@ from flylog.cli.metrics import metrics as metrics_command
 from flylog.errors import LogError
 from flylog.geometry import Pose2D
 from flylog.metrics import tables
-from flylog.metrics.trajectory import trajectory
 from flylog.metrics.tum import export_tum, tum_text
+from flylog.sources.trajectory import trajectory
 
 from .helpers import surface_flies, write_run
 
@@ -34,8 +34,9 @@ def test_export_of_a_sensor_log_and_of_a_run(sensor_log, truth, tmp_path):
     fields = np.array([line.split() for line in lines], dtype=float)
     np.testing.assert_allclose(fields[:, 0], truth.true.t_ns / 1e9)
     np.testing.assert_allclose(fields[:, 1:3], truth.true.xy, atol=1e-6)
-    np.testing.assert_allclose(2 * np.arctan2(fields[:, 6], fields[:, 7]), truth.true.xyt[:, 2],
-                               atol=1e-8)  # fmt: skip
+    np.testing.assert_allclose(
+        2 * np.arctan2(fields[:, 6], fields[:, 7]), truth.true.xyt[:, 2], atol=1e-8
+    )
 
     paths = [
         (t, np.array([[0.1 * k, 0.0, 0.2], [1.0, 1.0, 0.0]])) for k, t in enumerate((0, 100 * MS))

@@ -12,8 +12,8 @@ from flylog.geometry import Pose2D, StereoRig
 from flylog.metrics.config import MetricsConfig
 from flylog.metrics.flies import cell_counts, score_flies, view_at
 from flylog.metrics.score import score_run
-from flylog.metrics.truth import read_truth
 from flylog.metrics.view import TrueViews, block_rig, view_block
+from flylog.sources import read_truth
 
 from .helpers import true_view, write_run
 

@@ -7,40 +7,92 @@ import dataclasses
 
 import pytest
 
-from flylog.budget import Limits, replay_estimate, simulation_estimate
+from flylog.budget import Limits, simulation_estimate
 from flylog.errors import ConfigError, LimitError
 from flylog.geometry import StereoRig
 from flylog.replay.config import ReplayConfig
+from flylog.replay.estimate import replay_estimate
 from flylog.scene.load import parse_scene
 from tests.reliability.conftest import error_lines, run
 
 REFUSED = [
-    (["simulate", "s.toml", "-o", "x.mcap", "--duration", "1e9"],
-     "a 1e+09 s simulation would write about", "--max-output-size sets the limit"),
-    (["simulate", "s.toml", "-o", "x.mcap", "--resolution", "8192x8192", "--duration", "0.1",
-      "--max-memory", "1G"],
-     "would need about 1.79 GiB of memory, over the limit of 1 GiB", "--max-memory sets"),
-    (["replay", "log.mcap", "-o", "r.mcap", "--snapshot-rate", "1e12"],
-     "'snapshot_rate': must be at most 10000.0 Hz, got 1000000000000.0",
-     "(option --snapshot-rate)"),
-    (["replay", "log.mcap", "-o", "r.mcap", "--snapshot-rate", "1000"],
-     "snapshot_rate = 1000 Hz is above 150 Hz, 10 times the camera's frame rate in the log "
-     "log.mcap (15 Hz)", "(option --snapshot-rate)"),
-    (["replay", "log.mcap", "-o", "r.mcap", "--flies", "20000000"],
-     "'--flies': 20000000 is not in the range 16<=x<=10000000", ""),
-    (["replay", "log.mcap", "-o", "r.mcap", "--config", "extent.toml"],
-     "a replay of 2 s would write about", "--max-output-size sets the limit"),
-    (["replay", "log.mcap", "-o", "r.mcap", "--config", "extent.toml", "--max-output-size",
-      "1P"], "expected a size such as 500M", "'--max-output-size'"),
-    (["replay", "log.mcap", "-o", "r.mcap", "--config", "tick.toml"],
-     "planner.tick_rate = 1000 Hz is above 150 Hz", "(15 Hz)"),
-    (["simulate", "s.toml", "-o", "x.mcap", "--drive", "planner", "--config", "tick.toml"],
-     "planner.tick_rate = 1000 Hz is above 150 Hz", "in the scene s.toml (15 Hz)"),
-    (["simulate", "s.toml", "-o", "x.mcap", "--frame-rate", "1e9"],
-     "'--frame-rate': 1000000000.0 is not in the range 0.1<=x<=1000.0", ""),
-    (["simulate", "s.toml", "-o", "x.mcap", "--resolution", "99999x99999"],
-     "image sides must be 16 to 8192 pixels, got '99999x99999'", ""),
-]  # fmt: skip
+    (
+        ["simulate", "s.toml", "-o", "x.mcap", "--duration", "1e9"],
+        "a 1e+09 s simulation would write about",
+        "--max-output-size sets the limit",
+    ),
+    (
+        [
+            "simulate",
+            "s.toml",
+            "-o",
+            "x.mcap",
+            "--resolution",
+            "8192x8192",
+            "--duration",
+            "0.1",
+            "--max-memory",
+            "1G",
+        ],
+        "would need about 1.79 GiB of memory, over the limit of 1 GiB",
+        "--max-memory sets",
+    ),
+    (
+        ["replay", "log.mcap", "-o", "r.mcap", "--snapshot-rate", "1e12"],
+        "'snapshot_rate': must be at most 10000.0 Hz, got 1000000000000.0",
+        "(option --snapshot-rate)",
+    ),
+    (
+        ["replay", "log.mcap", "-o", "r.mcap", "--snapshot-rate", "1000"],
+        "snapshot_rate = 1000 Hz is above 150 Hz, 10 times the camera's frame rate in the log "
+        "log.mcap (15 Hz)",
+        "(option --snapshot-rate)",
+    ),
+    (
+        ["replay", "log.mcap", "-o", "r.mcap", "--flies", "20000000"],
+        "'--flies': 20000000 is not in the range 16<=x<=10000000",
+        "",
+    ),
+    (
+        ["replay", "log.mcap", "-o", "r.mcap", "--config", "extent.toml"],
+        "a replay of 2 s would write about",
+        "--max-output-size sets the limit",
+    ),
+    (
+        [
+            "replay",
+            "log.mcap",
+            "-o",
+            "r.mcap",
+            "--config",
+            "extent.toml",
+            "--max-output-size",
+            "1P",
+        ],
+        "expected a size such as 500M",
+        "'--max-output-size'",
+    ),
+    (
+        ["replay", "log.mcap", "-o", "r.mcap", "--config", "tick.toml"],
+        "planner.tick_rate = 1000 Hz is above 150 Hz",
+        "(15 Hz)",
+    ),
+    (
+        ["simulate", "s.toml", "-o", "x.mcap", "--drive", "planner", "--config", "tick.toml"],
+        "planner.tick_rate = 1000 Hz is above 150 Hz",
+        "in the scene s.toml (15 Hz)",
+    ),
+    (
+        ["simulate", "s.toml", "-o", "x.mcap", "--frame-rate", "1e9"],
+        "'--frame-rate': 1000000000.0 is not in the range 0.1<=x<=1000.0",
+        "",
+    ),
+    (
+        ["simulate", "s.toml", "-o", "x.mcap", "--resolution", "99999x99999"],
+        "image sides must be 16 to 8192 pixels, got '99999x99999'",
+        "",
+    ),
+]
 
 
 @pytest.mark.parametrize(("args", "start", "end"), REFUSED)
@@ -71,8 +123,18 @@ def test_the_limits_lift_a_refusal(work):
 def test_the_output_estimate_bounds_the_uncompressed_log(work):
     """Uncompressed, the images are the log: the estimate is at least its size and within
     25 % above it (turn.toml, 0.5 s at 64x48)."""
-    result = run("simulate", "s.toml", "-o", "x.mcap", "--duration", "0.5",
-                 "--resolution", "64x48", "--compression", "none")  # fmt: skip
+    result = run(
+        "simulate",
+        "s.toml",
+        "-o",
+        "x.mcap",
+        "--duration",
+        "0.5",
+        "--resolution",
+        "64x48",
+        "--compression",
+        "none",
+    )
     assert result.exit_code == 0, result.output
     size = (work / "x.mcap").stat().st_size
     rig = StereoRig(width=64, height=48, focal_px=500.0 * 64 / 640)
@@ -94,27 +156,41 @@ def test_replay_estimate_grows_with_the_grid_and_the_snapshots():
 
 
 SCENE_ERRORS = [
-    ('name = "s"\n[camera]\nbaseline = 0.0\n',
-     "s.toml: field 'camera.baseline': must be at least 0.001 m, got 0.0"),
-    ('name = "s"\n[[obstacles]]\nkind = "box"\ncenter = [0.2, 0.0]\nsize = [0.5, 0.5]\n',
-     "s.toml: obstacles[0] lies over the robot's start [0.0, 0.0] (closer than robot.radius "
-     "= 0.3 m): move it or 'robot.start'"),
-    ('name = "s"\n[robot]\ngoal = [5.0, 0.0]\n[[obstacles]]\nkind = "cylinder"\n'
-     'center = [5.1, 0.0]\nradius = 0.5\n',
-     "s.toml: field 'robot.goal': [5.0, 0.0] is inside obstacles[0]: move the goal"),
-    ('name = "s"\n[robot]\ngoal = [nan, 0.0]\n',
-     "s.toml: field 'robot.goal[0]': expected a finite number, got nan"),
-    ('name = "s"\n[lighting]\nazimuth_deg = inf\n',
-     "s.toml: field 'lighting.azimuth_deg': expected a finite number, got inf"),
-    ('name = "s"\nduration = -1.0\n[camera]\nbaseline = 0.0\nwidth = 9\n[robot]\nradius = nan\n',
-     "s.toml: 4 problems: field 'duration': must be at least 0.0 s, got -1.0; field "
-     "'camera.baseline': must be at least 0.001 m, got 0.0; field 'camera.width': must be at "
-     "least 16 px, got 9; field 'robot.radius': expected a finite number, got nan"),
-    ('name = "s"\n[robot]\ngoal = [5.0, 0.0]\n[[obstacles]]\nkind = "cylinder"\n'
-     'center = [0.0, 0.0]\nradius = 0.5\n[[obstacles]]\nkind = "wall"\nstart = [5.0, -1.0]\n'
-     'end = [5.0, 1.0]\n',
-     "s.toml: 2 problems: obstacles[0] lies over the robot's start"),
-]  # fmt: skip
+    (
+        'name = "s"\n[camera]\nbaseline = 0.0\n',
+        "s.toml: field 'camera.baseline': must be at least 0.001 m, got 0.0",
+    ),
+    (
+        'name = "s"\n[[obstacles]]\nkind = "box"\ncenter = [0.2, 0.0]\nsize = [0.5, 0.5]\n',
+        "s.toml: obstacles[0] lies over the robot's start [0.0, 0.0] (closer than robot.radius "
+        "= 0.3 m): move it or 'robot.start'",
+    ),
+    (
+        'name = "s"\n[robot]\ngoal = [5.0, 0.0]\n[[obstacles]]\nkind = "cylinder"\n'
+        "center = [5.1, 0.0]\nradius = 0.5\n",
+        "s.toml: field 'robot.goal': [5.0, 0.0] is inside obstacles[0]: move the goal",
+    ),
+    (
+        'name = "s"\n[robot]\ngoal = [nan, 0.0]\n',
+        "s.toml: field 'robot.goal[0]': expected a finite number, got nan",
+    ),
+    (
+        'name = "s"\n[lighting]\nazimuth_deg = inf\n',
+        "s.toml: field 'lighting.azimuth_deg': expected a finite number, got inf",
+    ),
+    (
+        'name = "s"\nduration = -1.0\n[camera]\nbaseline = 0.0\nwidth = 9\n[robot]\nradius = nan\n',
+        "s.toml: 4 problems: field 'duration': must be at least 0.0 s, got -1.0; field "
+        "'camera.baseline': must be at least 0.001 m, got 0.0; field 'camera.width': must be at "
+        "least 16 px, got 9; field 'robot.radius': expected a finite number, got nan",
+    ),
+    (
+        'name = "s"\n[robot]\ngoal = [5.0, 0.0]\n[[obstacles]]\nkind = "cylinder"\n'
+        'center = [0.0, 0.0]\nradius = 0.5\n[[obstacles]]\nkind = "wall"\nstart = [5.0, -1.0]\n'
+        "end = [5.0, 1.0]\n",
+        "s.toml: 2 problems: obstacles[0] lies over the robot's start",
+    ),
+]
 
 
 def test_command_line_overrides_are_checked_as_a_file_is():

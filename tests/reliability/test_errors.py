@@ -74,8 +74,9 @@ def test_a_bug_is_one_line_and_exit_1_and_its_traceback_with_flylog_debug(work, 
 
 def test_flylog_debug_adds_the_traceback_of_a_user_error(work):
     (work / "bad.toml").write_text("seed = -1\n")
-    result = run("replay", "log.mcap", "-o", "r.mcap", "--config", "bad.toml",
-                 env={"FLYLOG_DEBUG": "1"})  # fmt: skip
+    result = run(
+        "replay", "log.mcap", "-o", "r.mcap", "--config", "bad.toml", env={"FLYLOG_DEBUG": "1"}
+    )
     assert result.exit_code == 2
     assert "Traceback" in result.stderr
     assert result.stderr.rstrip().splitlines()[-1].startswith("error: bad.toml:")

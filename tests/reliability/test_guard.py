@@ -19,7 +19,8 @@ import pytest
 from flylog.cli.main import _COMMANDS
 from flylog.config import replace_dotted
 from flylog.geometry import Pose2D, StereoRig
-from flylog.metrics.score import score_run, write_metrics
+from flylog.metrics.score import score_run
+from flylog.metrics.write import write_metrics
 from flylog.replay.config import ReplayConfig
 from flylog.replay.run import replay
 from flylog.ros2.export import export_ros2
@@ -99,8 +100,11 @@ OUT = ("--output", "-o")
 CASES: dict[str, list[tuple[list[str], str, str]]] = {
     "simulate": [
         (["simulate", "s.toml", "-o", "s.toml"], OUT, "s.toml"),
-        (["simulate", "s.toml", "--drive", "planner", "--config", "c.toml", "-o", "c.toml"],
-         OUT, "c.toml"),
+        (
+            ["simulate", "s.toml", "--drive", "planner", "--config", "c.toml", "-o", "c.toml"],
+            OUT,
+            "c.toml",
+        ),
     ],
     "replay": [
         (["replay", "log.mcap", "-o", "log.mcap"], OUT, "log.mcap"),
@@ -111,8 +115,11 @@ CASES: dict[str, list[tuple[list[str], str, str]]] = {
     "metrics": [
         (["metrics", "run.mcap", "--log", "log.mcap", "-o", "run.mcap"], OUT, "run.mcap"),
         (["metrics", "run.mcap", "--log", "log.mcap", "-o", "log.mcap"], OUT, "log.mcap"),
-        (["metrics", "run.mcap", "--log", "log.mcap", "--config", "c.toml", "-o", "c.toml"],
-         OUT, "c.toml"),
+        (
+            ["metrics", "run.mcap", "--log", "log.mcap", "--config", "c.toml", "-o", "c.toml"],
+            OUT,
+            "c.toml",
+        ),
     ],
     "compare": [
         ([*COMPARE, "m.parquet"], ("--junit",), "m.parquet"),
@@ -132,17 +139,37 @@ CASES: dict[str, list[tuple[list[str], str, str]]] = {
         (["export", "run.mcap", "--tum", "d"], ("--tum",), "d/true.tum"),
     ],
     "import": [
-        *[(["import", "middlebury", MB, "-o", f"{MB}/{name}"], OUT, f"{MB}/{name}")
-          for name in ("im0.png", "im1.png", "calib.txt", "disp0.pfm")],
-        *[(["import", "kitti", "kitti", "-o", f"{KT}/{name}"], OUT, f"{KT}/{name}")
-          for name in ("image_2/000000_10.png", "image_3/000000_10.png",
-                       "calib_cam_to_cam/000000.txt", "disp_occ_0/000000_10.png")],
-        *[(["import", "kitti", SEQ, "-o", name], OUT, name)
-          for name in (f"{SEQ}/times.txt", f"{SEQ}/calib.txt", "odo/poses/00.txt",
-                       f"{SEQ}/image_3/000001.png")],
-        *[(["import", "euroc", "euroc", "-o", name], OUT, name)
-          for name in (f"{EUROC}/cam0/data.csv", f"{EUROC}/cam1/sensor.yaml", EUROC_IMAGE,
-                       f"{EUROC}/state_groundtruth_estimate0/data.csv")],
+        *[
+            (["import", "middlebury", MB, "-o", f"{MB}/{name}"], OUT, f"{MB}/{name}")
+            for name in ("im0.png", "im1.png", "calib.txt", "disp0.pfm")
+        ],
+        *[
+            (["import", "kitti", "kitti", "-o", f"{KT}/{name}"], OUT, f"{KT}/{name}")
+            for name in (
+                "image_2/000000_10.png",
+                "image_3/000000_10.png",
+                "calib_cam_to_cam/000000.txt",
+                "disp_occ_0/000000_10.png",
+            )
+        ],
+        *[
+            (["import", "kitti", SEQ, "-o", name], OUT, name)
+            for name in (
+                f"{SEQ}/times.txt",
+                f"{SEQ}/calib.txt",
+                "odo/poses/00.txt",
+                f"{SEQ}/image_3/000001.png",
+            )
+        ],
+        *[
+            (["import", "euroc", "euroc", "-o", name], OUT, name)
+            for name in (
+                f"{EUROC}/cam0/data.csv",
+                f"{EUROC}/cam1/sensor.yaml",
+                EUROC_IMAGE,
+                f"{EUROC}/state_groundtruth_estimate0/data.csv",
+            )
+        ],
     ],
     "sweep": [
         (["sweep", "spec.toml", "-o", "spec.toml"], OUT, "spec.toml"),
@@ -159,7 +186,7 @@ CASES: dict[str, list[tuple[list[str], str, str]]] = {
     ],
     # describe prints a table's columns and writes nothing
     "describe": [],
-}  # fmt: skip
+}
 
 
 def test_every_command_has_its_cases() -> None:

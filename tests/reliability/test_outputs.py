@@ -45,14 +45,20 @@ COLLISIONS = [
     (["replay", "log.mcap", "-o", "r.mcap", "--config", "r.parquet"], "--output", None),
     (["simulate", "s.toml", "-o", "s.toml"], "--output", "s.toml"),
     (["simulate", "s.toml", "-o", "{abs}/./s.toml"], "--output", "s.toml"),
-    (["simulate", "s.toml", "-o", "c.toml", "--drive", "planner", "--config", "c.toml"],
-     "--output", None),
+    (
+        ["simulate", "s.toml", "-o", "c.toml", "--drive", "planner", "--config", "c.toml"],
+        "--output",
+        None,
+    ),
     (["metrics", "log.mcap", "-o", "m.summary.parquet"], "--output", None),
     (["metrics", "m.parquet", "--log", "log.mcap", "-o", "m.parquet"], "--output", None),
-    (["metrics", "log.mcap", "-o", "m.parquet", "--config", "m.obstacles.parquet"],
-     "--output", None),
+    (
+        ["metrics", "log.mcap", "-o", "m.parquet", "--config", "m.obstacles.parquet"],
+        "--output",
+        None,
+    ),
     (["export", "d/true.tum", "--tum", "d"], "--tum", "d/true.tum"),
-]  # fmt: skip
+]
 
 
 @pytest.mark.parametrize(("args", "option", "kept"), COLLISIONS)
@@ -166,8 +172,12 @@ def test_the_file_is_made_durable_before_it_is_renamed(tmp_path, monkeypatch):
 
 
 def _dead_pid() -> int:
-    child = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
-                           capture_output=True, text=True, check=True)  # fmt: skip
+    child = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.getpid())"],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     return int(child.stdout)
 
 

@@ -58,8 +58,9 @@ def compiled_kernels(tmp_path_factory):
     once the kernels are loaded."""
     work = tmp_path_factory.mktemp("warm")
     shutil.copy(LOG, work / "log.mcap")
-    process = _flylog("replay", "log.mcap", "-o", "run.mcap", "--generations-per-frame", "1",
-                      cwd=work)  # fmt: skip
+    process = _flylog(
+        "replay", "log.mcap", "-o", "run.mcap", "--generations-per-frame", "1", cwd=work
+    )
     _, err = process.communicate(timeout=600)
     assert process.returncode == 0, err
 
@@ -69,8 +70,9 @@ def test_a_stop_signal_removes_the_partial_outputs_of_replay(tmp_path, signum, c
     """Replay writes from three threads; 2000 generations a frame keep it busy long
     enough to be stopped half-way."""
     shutil.copy(LOG, tmp_path / "log.mcap")
-    process = _flylog("replay", "log.mcap", "-o", "run.mcap", "--generations-per-frame",
-                      "2000", cwd=tmp_path)  # fmt: skip
+    process = _flylog(
+        "replay", "log.mcap", "-o", "run.mcap", "--generations-per-frame", "2000", cwd=tmp_path
+    )
     _wait_for_part(process, tmp_path)
     process.send_signal(signum)
     _, err = process.communicate(timeout=WAIT_FOR_PART_S)

@@ -20,9 +20,17 @@ def _run(tmp_path, name, extra=()):
     out = tmp_path / name
     result = CliRunner().invoke(
         cli,
-        ["simulate", str(SCENES / "corridor.toml"), "-o", str(out), *ARGS,
-         "--config", str(config), *extra],
-    )  # fmt: skip
+        [
+            "simulate",
+            str(SCENES / "corridor.toml"),
+            "-o",
+            str(out),
+            *ARGS,
+            "--config",
+            str(config),
+            *extra,
+        ],
+    )
     assert result.exit_code == 0, result.output
     return out
 
@@ -31,9 +39,15 @@ def test_closed_loop_log_carries_sensors_and_outputs_and_is_deterministic(tmp_pa
     a = _run(tmp_path, "a.mcap")
     reader = open_log(a)
     topics = reader.topics()
-    for topic in (contract.LEFT_IMAGE, contract.TRUTH_POSE, contract.FLIES,
-                  contract.FLIES_OVERLAY, contract.PLANNER_POTENTIAL, contract.PLANNER_PATH,
-                  contract.PLANNER_COMMAND):  # fmt: skip
+    for topic in (
+        contract.LEFT_IMAGE,
+        contract.TRUTH_POSE,
+        contract.FLIES,
+        contract.FLIES_OVERLAY,
+        contract.PLANNER_POTENTIAL,
+        contract.PLANNER_PATH,
+        contract.PLANNER_COMMAND,
+    ):
         assert topic in topics, topic
     meta = reader.metadata()[contract.REPLAY_METADATA]
     assert json.loads(meta["config"])["engine"]["flies"] == 600
@@ -60,8 +74,16 @@ def test_config_without_closed_loop_is_refused(tmp_path):
     config = tmp_path / "loop.toml"
     config.write_text("seed = 1\n")
     result = CliRunner().invoke(
-        cli, ["simulate", str(SCENES / "corridor.toml"), "-o", str(tmp_path / "x.mcap"),
-              "--config", str(config)])  # fmt: skip
+        cli,
+        [
+            "simulate",
+            str(SCENES / "corridor.toml"),
+            "-o",
+            str(tmp_path / "x.mcap"),
+            "--config",
+            str(config),
+        ],
+    )
     assert result.exit_code == 2 and "--config goes with --drive planner" in result.output
 
 
@@ -73,8 +95,20 @@ def test_a_run_stuck_for_the_timeout_ends_with_its_status(tmp_path):
         "stuck_timeout = 0.5\n"
     )
     out = tmp_path / "stuck.mcap"
-    args = ["simulate", str(SCENES / "corridor.toml"), "-o", str(out), "--duration", "4",
-            "--resolution", "96x72", "--drive", "planner", "--config", str(config)]  # fmt: skip
+    args = [
+        "simulate",
+        str(SCENES / "corridor.toml"),
+        "-o",
+        str(out),
+        "--duration",
+        "4",
+        "--resolution",
+        "96x72",
+        "--drive",
+        "planner",
+        "--config",
+        str(config),
+    ]
     result = CliRunner().invoke(cli, args)
     assert result.exit_code == 0, result.output
     assert "planner stuck, run ended by stuck" in result.output

@@ -9,14 +9,14 @@ import numpy as np
 import pytest
 
 import flylog.replay.run as replay_run
-import flylog.replay.source as replay_source
+import flylog.sources.stream as replay_source
 from flylog.config import from_mapping
 from flylog.io.reader import open_log
 from flylog.metrics.score import score_run
 from flylog.replay.config import ReplayConfig
-from flylog.replay.inputs import replay_inputs
 from flylog.scene import load_scene
 from flylog.sim.run import SimulationOptions, effective_scene, simulate
+from flylog.sources.inputs import replay_inputs
 
 ROOT = Path(__file__).resolve().parents[2]
 CORRIDOR_SCENE = ROOT / "fixtures" / "scenes" / "corridor.toml"
@@ -42,8 +42,11 @@ def test_replay_reads_the_rig_a_real_camera_log_was_recorded_with(tmp_path):
     )
     got = replay_inputs(open_log(log), goal=(1.0, 0.0)).rig
     assert (got.width, got.height, got.focal_px, got.baseline) == (
-        rig.width, rig.height, rig.focal_px, rig.baseline,
-    )  # fmt: skip
+        rig.width,
+        rig.height,
+        rig.focal_px,
+        rig.baseline,
+    )
     assert got.principal_point == (30.25, 20.5) and got.doffs == 2.5
     assert (got.tilt, got.roll, got.pan) == pytest.approx((20.0, -3.0, 0.0), abs=1e-9)
     for side in ("left", "right"):

@@ -52,8 +52,14 @@ def corridor_run(tmp_path_factory):
 def test_writes_every_output_topic_and_one_row_per_planner_tick(corridor_run):
     reader = open_log(corridor_run.output)
     topics = reader.topics()
-    for topic in (contract.FLIES, contract.FLIES_OVERLAY, contract.PLANNER_POTENTIAL,
-                  contract.PLANNER_PATH, contract.PLANNER_COMMAND, contract.TF):  # fmt: skip
+    for topic in (
+        contract.FLIES,
+        contract.FLIES_OVERLAY,
+        contract.PLANNER_POTENTIAL,
+        contract.PLANNER_PATH,
+        contract.PLANNER_COMMAND,
+        contract.TF,
+    ):
         assert topics[topic].schema == contract.TOPIC_SCHEMAS[topic]
     # 2 s of log: planner at 10 Hz and snapshots at 5 Hz, both ends included
     assert topics[contract.PLANNER_COMMAND].count == 21
@@ -101,8 +107,11 @@ def test_never_reads_truth(corridor_run, tmp_path):
 
 
 def test_sync_sees_images_at_least_one_frame_late_async_sooner(tmp_path):
-    sync = replay(CORRIDOR, tmp_path / "s.mcap", ReplayConfig(
-        engine=SMALL.engine, sync=True, generations_per_frame=1))  # fmt: skip
+    sync = replay(
+        CORRIDOR,
+        tmp_path / "s.mcap",
+        ReplayConfig(engine=SMALL.engine, sync=True, generations_per_frame=1),
+    )
     asyn = replay(CORRIDOR, tmp_path / "a.mcap", ReplayConfig(engine=SMALL.engine))
     lat_sync = pq.read_table(sync.table).column("image_latency_s").to_pylist()[5:]
     lat_async = pq.read_table(asyn.table).column("image_latency_s").to_pylist()[5:]
@@ -128,8 +137,18 @@ def test_cli_config_file_and_overrides(tmp_path):
     config.write_text("seed = 7\ngenerations_per_frame = 3\n[engine]\nflies = 300\n")
     out = tmp_path / "run.mcap"
     result = CliRunner().invoke(
-        cli, ["replay", str(CORRIDOR), "-o", str(out), "--config", str(config),
-              "--generations-per-frame", "1"])  # fmt: skip
+        cli,
+        [
+            "replay",
+            str(CORRIDOR),
+            "-o",
+            str(out),
+            "--config",
+            str(config),
+            "--generations-per-frame",
+            "1",
+        ],
+    )
     assert result.exit_code == 0, result.output
     assert "31 generations" in result.output
     stored = json.loads(open_log(out).metadata()[contract.REPLAY_METADATA]["config"])
@@ -199,9 +218,9 @@ def _pipeline_outputs(
     clock never saying that no tick can read it)."""
     from flylog.io.pairing import pair_stereo
     from flylog.replay.clock import VirtualClock
-    from flylog.replay.inputs import SENSOR_TOPICS, replay_inputs
     from flylog.replay.pipeline import FlyPipeline
     from flylog.replay.run import clock_config
+    from flylog.sources.inputs import SENSOR_TOPICS, replay_inputs
 
     class CopyAtPublish(FlyPipeline):
         def publish(self, t_ns: int) -> None:
@@ -217,9 +236,14 @@ def _pipeline_outputs(
         written.append((topic, t_ns, data))
 
     pipeline = (CopyAtPublish if copy_at_publish else FlyPipeline)(
-        config, inputs.rig, inputs.start, inputs.goal, write,
-        on_row=rows.append, planner_thread=planner_thread,
-    )  # fmt: skip
+        config,
+        inputs.rig,
+        inputs.start,
+        inputs.goal,
+        write,
+        on_row=rows.append,
+        planner_thread=planner_thread,
+    )
     timing = clock_config(config, inputs.frame_period_ns)
     if copy_at_publish:
         timing = dataclasses.replace(timing, max_generation_cost_ns=None)
@@ -282,8 +306,8 @@ def test_copying_the_published_population_only_when_read_changes_no_output(overr
 def test_planner_worker_writes_every_output_on_its_own_nicer_thread():
     from flylog.geometry import Pose2D
     from flylog.io.readahead import HELPER_NICENESS
-    from flylog.replay.inputs import replay_inputs
     from flylog.replay.pipeline import PLANNER_TICK, SNAPSHOT_TICK, FlyPipeline
+    from flylog.sources.inputs import replay_inputs
 
     def nice() -> int:
         return os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
@@ -295,9 +319,14 @@ def test_planner_worker_writes_every_output_on_its_own_nicer_thread():
 
     rig = replay_inputs(open_log(CORRIDOR), goal=None).rig
     pipeline = FlyPipeline(
-        SMALL, rig, Pose2D(0.0, 0.0, 0.0), (3.0, 0.0), write, on_row=lambda row: None,
+        SMALL,
+        rig,
+        Pose2D(0.0, 0.0, 0.0),
+        (3.0, 0.0),
+        write,
+        on_row=lambda row: None,
         planner_thread=True,
-    )  # fmt: skip
+    )
     try:
         pipeline.tick(PLANNER_TICK, 0)
         pipeline.tick(SNAPSHOT_TICK, 0)
@@ -317,8 +346,8 @@ def test_planner_worker_writes_every_output_on_its_own_nicer_thread():
 @pytest.mark.parametrize(("warm", "thread"), [(0, False), (700, False), (5000, True)])
 def test_the_pipeline_starts_from_a_relaxed_obstacle_free_field(warm, thread):
     from flylog.geometry import Pose2D
-    from flylog.replay.inputs import replay_inputs
     from flylog.replay.pipeline import FlyPipeline
+    from flylog.sources.inputs import replay_inputs
 
     rig = replay_inputs(open_log(CORRIDOR), goal=None).rig
     config = replace_dotted(SMALL, {"planner.warm_start_sweeps": warm})

@@ -155,9 +155,23 @@ def test_closed_loop_drives_with_sgbm(tmp_path):
     scene = Path(__file__).resolve().parents[2] / "fixtures" / "scenes" / "corridor.toml"
     result = CliRunner().invoke(
         cli,
-        ["simulate", str(scene), "-o", str(out), "--duration", "2", "--resolution", "96x72",
-         "--seed", "2", "--drive", "planner", "--config", str(config)],
-    )  # fmt: skip
+        [
+            "simulate",
+            str(scene),
+            "-o",
+            str(out),
+            "--duration",
+            "2",
+            "--resolution",
+            "96x72",
+            "--seed",
+            "2",
+            "--drive",
+            "planner",
+            "--config",
+            str(config),
+        ],
+    )
     assert result.exit_code == 0, result.output
     reader = open_log(out)
     meta = reader.metadata()[contract.REPLAY_METADATA]

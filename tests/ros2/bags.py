@@ -63,26 +63,33 @@ def p_matrix(tx: float = 0.0, cx: float = (W - 1) / 2, cy: float = (H - 1) / 2) 
 def camera_info(t_ns: int, frame: str, tx: float, **kw: Any) -> Any:
     size = kw.pop("size", (W, H))
     return T["sensor_msgs/msg/CameraInfo"](
-        header=header(t_ns, frame), height=size[1], width=size[0],
+        header=header(t_ns, frame),
+        height=size[1],
+        width=size[0],
         distortion_model=kw.pop("model", "plumb_bob"),
         d=np.asarray(kw.pop("d", np.zeros(5)), dtype=np.float64),
         k=np.asarray(kw.pop("k", k_matrix()), dtype=np.float64),
         r=np.asarray(kw.pop("r", np.eye(3).ravel()), dtype=np.float64),
         p=np.asarray(kw.pop("p", p_matrix(tx)), dtype=np.float64),
-        binning_x=0, binning_y=0,
+        binning_x=0,
+        binning_y=0,
         roi=T["sensor_msgs/msg/RegionOfInterest"](
             x_offset=0, y_offset=0, height=0, width=0, do_rectify=False
         ),
-    )  # fmt: skip
+    )
 
 
 def image(t_ns: int, frame: str, pixels: np.ndarray, encoding: str = "rgb8") -> Any:
     flat = np.ascontiguousarray(pixels)
     return T["sensor_msgs/msg/Image"](
-        header=header(t_ns, frame), height=flat.shape[0], width=flat.shape[1],
-        encoding=encoding, is_bigendian=0, step=flat.strides[0],
+        header=header(t_ns, frame),
+        height=flat.shape[0],
+        width=flat.shape[1],
+        encoding=encoding,
+        is_bigendian=0,
+        step=flat.strides[0],
         data=flat.view(np.uint8).reshape(-1),
-    )  # fmt: skip
+    )
 
 
 def compressed(t_ns: int, frame: str, rgb: np.ndarray, fmt: str) -> Any:
@@ -99,9 +106,10 @@ def transform(t_ns: int, parent: str, child: str, xyz: tuple, q: tuple) -> Any:
     v = T["geometry_msgs/msg/Vector3"](x=xyz[0], y=xyz[1], z=xyz[2])
     r = T["geometry_msgs/msg/Quaternion"](x=q[0], y=q[1], z=q[2], w=q[3])
     return T["geometry_msgs/msg/TransformStamped"](
-        header=header(t_ns, parent), child_frame_id=child,
+        header=header(t_ns, parent),
+        child_frame_id=child,
         transform=T["geometry_msgs/msg/Transform"](translation=v, rotation=r),
-    )  # fmt: skip
+    )
 
 
 def tf_message(transforms: list[Any]) -> Any:
@@ -144,20 +152,25 @@ def odometry(t_ns: int, x: float, y: float, yaw: float, roll: float = 0.0) -> An
     )
     zero = T["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0)
     return T["nav_msgs/msg/Odometry"](
-        header=header(t_ns, "odom"), child_frame_id="base_link",
+        header=header(t_ns, "odom"),
+        child_frame_id="base_link",
         pose=T["geometry_msgs/msg/PoseWithCovariance"](pose=pose, covariance=np.zeros(36)),
         twist=T["geometry_msgs/msg/TwistWithCovariance"](
             twist=T["geometry_msgs/msg/Twist"](linear=zero, angular=zero),
             covariance=np.zeros(36),
         ),
-    )  # fmt: skip
+    )
 
 
 def range_msg(t_ns: int, frame: str, value: float, lo: float = 0.05, hi: float = 3.0) -> Any:
     return T["sensor_msgs/msg/Range"](
-        header=header(t_ns, frame), radiation_type=0, field_of_view=math.radians(15),
-        min_range=lo, max_range=hi, range=value,
-    )  # fmt: skip
+        header=header(t_ns, frame),
+        radiation_type=0,
+        field_of_view=math.radians(15),
+        min_range=lo,
+        max_range=hi,
+        range=value,
+    )
 
 
 Message = tuple[str, str, int, Any]  # topic, type, log time, message

@@ -70,14 +70,19 @@ def test_camera_info_of_another_size_than_the_images(tmp_path):
     for topic, mtype, t, msg in bags.messages(BagSpec(frames=2)):
         if mtype == "sensor_msgs/msg/CameraInfo":
             msg = bags.camera_info(
-                t, msg.header.frame_id, msg.p[3], size=(80, 60),
-                k=bags.k_matrix(39.5, 29.5), p=bags.p_matrix(msg.p[3], 39.5, 29.5),
-            )  # fmt: skip
+                t,
+                msg.header.frame_id,
+                msg.p[3],
+                size=(80, 60),
+                k=bags.k_matrix(39.5, 29.5),
+                p=bags.p_matrix(msg.p[3], 39.5, 29.5),
+            )
         items.append((topic, mtype, t, msg))
     refused(
-        tmp_path, write_bag(tmp_path / "bag", items),
+        tmp_path,
+        write_bag(tmp_path / "bag", items),
         "/stereo/left/image_rect has 64×48 images but /stereo/left/camera_info calibrates 80×60",
-    )  # fmt: skip
+    )
 
 
 def test_a_range_topic_without_a_transform(tmp_path):
@@ -102,10 +107,12 @@ def test_a_ros1_bag_and_non_square_pixels(tmp_path):
             msg.p[5] = 41.0  # fy ≠ fx = 40
         items.append((topic, mtype, t, msg))
     refused(
-        tmp_path, write_bag(tmp_path / "rect", items),
+        tmp_path,
+        write_bag(tmp_path / "rect", items),
         "/stereo/left/camera_info and /stereo/right/camera_info: the left P has fx = 40.0, "
-        "fy = 41.0", "needs square pixels",
-    )  # fmt: skip
+        "fy = 41.0",
+        "needs square pixels",
+    )
 
 
 def test_ros2idl_schemas_are_refused_by_name(tmp_path):
@@ -164,7 +171,7 @@ def test_export_refuses_an_existing_output_and_leaves_nothing_on_failure(tmp_pat
 
 
 def test_metrics_against_a_bag_without_ground_truth_says_what_is_missing(tmp_path):
-    from flylog.ros2.truth import bag_truth
+    from flylog.sources.bag import bag_truth
 
     with pytest.raises(LogError, match=r"lacks /truth/odom \(the true pose\), custom_data "):
         bag_truth(make_bag(tmp_path / "bag"))

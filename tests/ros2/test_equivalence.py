@@ -18,13 +18,13 @@ from flylog.io.reader import open_log
 from flylog.metrics.config import MetricsConfig
 from flylog.metrics.score import score_run
 from flylog.replay.config import ReplayConfig
-from flylog.replay.inputs import replay_inputs
 from flylog.replay.run import replay
 from flylog.ros2.bag import open_bag
 from flylog.ros2.config import BagOptions
 from flylog.ros2.export import export_ros2
 from flylog.ros2.messages import ImageFormat
 from flylog.ros2.source import BagSource
+from flylog.sources.inputs import replay_inputs
 from tests.replay.test_replay import CORRIDOR, table_rows
 
 SMALL = replace_dotted(ReplayConfig(), {"engine.flies": 400, "generations_per_frame": 2})
@@ -84,9 +84,23 @@ def test_a_tilted_off_centre_log_replays_bit_for_bit_from_its_export(tmp_path):
     log = tmp_path / "tilted.mcap"
     scene = CORRIDOR.parents[1] / "scenes" / "corridor.toml"
     simulate = [
-        "simulate", str(scene), "-o", str(log), "--duration", "1", "--resolution", "160x120",
-        "--tilt", "15", "--roll", "-2", "--principal-point", "85,55", "--doffs", "2",
-    ]  # fmt: skip
+        "simulate",
+        str(scene),
+        "-o",
+        str(log),
+        "--duration",
+        "1",
+        "--resolution",
+        "160x120",
+        "--tilt",
+        "15",
+        "--roll",
+        "-2",
+        "--principal-point",
+        "85,55",
+        "--doffs",
+        "2",
+    ]
     result = CliRunner().invoke(cli, simulate)
     assert result.exit_code == 0, result.output
     bag = export_ros2(log, tmp_path / "bag").output

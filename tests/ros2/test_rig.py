@@ -50,11 +50,20 @@ def assert_rig(got, axes):
     left = np.array(bags.MOUNT)
     mid = left + bags.BASELINE / 2 * axes[:, 0]
     want = StereoRig(
-        width=bags.W, height=bags.H, focal_px=bags.FOCAL, baseline=bags.BASELINE,
-        principal_point=PRINCIPAL, doffs=DOFFS, frame_rate=10.0,
-        mount_x=got.mount_x, mount_y=got.mount_y, mount_height=got.mount_height,
-        pan=got.pan, tilt=got.tilt, roll=got.roll,
-    )  # fmt: skip
+        width=bags.W,
+        height=bags.H,
+        focal_px=bags.FOCAL,
+        baseline=bags.BASELINE,
+        principal_point=PRINCIPAL,
+        doffs=DOFFS,
+        frame_rate=10.0,
+        mount_x=got.mount_x,
+        mount_y=got.mount_y,
+        mount_height=got.mount_height,
+        pan=got.pan,
+        tilt=got.tilt,
+        roll=got.roll,
+    )
     assert got == want  # size, focal length, baseline, principal point, doffs: exactly
     assert (got.pan, got.tilt, got.roll) == pytest.approx((PAN, TILT, ROLL), abs=1e-12)
     assert (got.mount_x, got.mount_y, got.mount_height) == pytest.approx(tuple(mid), abs=1e-15)
@@ -105,8 +114,12 @@ def test_a_raw_pair_takes_the_orientation_of_its_rectified_frames(tmp_path):
 def _quaternion(m):
     """x, y, z, w of a rotation matrix (w well away from 0)."""
     w = math.sqrt(1.0 + m[0, 0] + m[1, 1] + m[2, 2]) / 2
-    return ((m[2, 1] - m[1, 2]) / (4 * w), (m[0, 2] - m[2, 0]) / (4 * w),
-            (m[1, 0] - m[0, 1]) / (4 * w), w)  # fmt: skip
+    return (
+        (m[2, 1] - m[1, 2]) / (4 * w),
+        (m[0, 2] - m[2, 0]) / (4 * w),
+        (m[1, 0] - m[0, 1]) / (4 * w),
+        w,
+    )
 
 
 def _with_camera_info(spec, change):
@@ -129,10 +142,11 @@ def test_non_square_pixels_are_refused(tmp_path):
         msg.p[5] = bags.FOCAL * 1.01
 
     _refused(
-        tmp_path, _with_camera_info(tilted_spec(), change),
+        tmp_path,
+        _with_camera_info(tilted_spec(), change),
         r"camera_info and /stereo/right/camera_info: the left P has fx = 40.0, fy = 40.4 and "
         r"skew 0.0: flylog's stereo rig needs square pixels",
-    )  # fmt: skip
+    )
 
 
 def test_an_unaligned_right_camera_is_refused(tmp_path):
@@ -141,29 +155,32 @@ def test_an_unaligned_right_camera_is_refused(tmp_path):
             msg.p[6] += 0.5
 
     _refused(
-        tmp_path, _with_camera_info(tilted_spec(), rows),
+        tmp_path,
+        _with_camera_info(tilted_spec(), rows),
         r"the right P has cy = 22.25, the left 21.75: the rows of a rectified pair align",
-    )  # fmt: skip
+    )
 
     def below(side, msg):
         if side == "right":
             msg.p[7] = -bags.FOCAL * 0.01  # fy·Ty, Ty = −0.01: 1 cm below the left camera
 
     _refused(
-        tmp_path, _with_camera_info(tilted_spec(), below),
+        tmp_path,
+        _with_camera_info(tilted_spec(), below),
         r"the right P puts the right camera 0.01 m down and 0.0 m forward of the left one",
         name="below",
-    )  # fmt: skip
+    )
 
 
 def test_a_right_transform_off_the_left_cameras_x_axis_is_refused(tmp_path):
     x, y, z = right_of_left()
     spec = tilted_spec(right_mount=(x, y, z - 0.02))
     _refused(
-        tmp_path, bags.messages(spec),
+        tmp_path,
+        bags.messages(spec),
         r"/tf_static puts the cameras at .* m, but .* give a baseline of 0.1 m: flylog's "
         r"stereo rig needs the right camera 0.1 m along the left camera's x axis",
-    )  # fmt: skip
+    )
 
 
 def test_cameras_turned_differently_are_refused(tmp_path):
@@ -180,10 +197,11 @@ def test_cameras_turned_differently_are_refused(tmp_path):
 def test_a_mount_beyond_the_rigs_range_is_refused(tmp_path):
     spec = BagSpec(frames=2, camera_q=bags.turned_q(tilt=math.radians(70.0)))
     _refused(
-        tmp_path, bags.messages(spec),
+        tmp_path,
+        bags.messages(spec),
         r"/tf_static mounts the cameras with a tilt of 70°: flylog's stereo rig represents "
         r"-60° to 60°",
-    )  # fmt: skip
+    )
 
 
 def _right_p(index, value):

@@ -13,17 +13,17 @@ from rosbags.typesys import Stores, get_typestore
 
 from flylog.cli.main import cli
 from flylog.errors import LogError, OutputError
+from flylog.export import run_bag as rx
 from flylog.fly.confidence import ConfidenceModel
 from flylog.fly.depth_image import sparse_depth
 from flylog.fly.snapshot_export import export_ply, snapshot_name
 from flylog.io import contract
 from flylog.io.reader import open_log
 from flylog.metrics.config import MetricsConfig
-from flylog.metrics.score import run_facts
-from flylog.replay.inputs import log_rig
+from flylog.metrics.result import run_facts
 from flylog.replay.run import replay
-from flylog.ros2 import run_export as rx
 from flylog.ros2.export import export_ros2
+from flylog.sources.inputs import log_rig
 from tests.replay.test_replay import CORRIDOR, SMALL
 
 # A model whose confidence is the fitness's rank: enough to check the field is carried.

@@ -63,9 +63,10 @@ def test_mono8_and_mono16_are_grey_and_mono16_keeps_its_top_byte(tmp_path):
     _, values = records(make_bag(tmp_path / "m8", spec))
     assert np.array_equal(pairs(values)[0].left, grey)
     wide = BagSpec(
-        frames=1, encoding="mono16",
+        frames=1,
+        encoding="mono16",
         image_of=lambda side, rgb: rgb[..., 1].astype(np.uint16) * 256 + 77,
-    )  # fmt: skip
+    )
     _, values = records(make_bag(tmp_path / "m16", wide))
     assert np.array_equal(pairs(values)[0].left, grey)
 

@@ -18,8 +18,8 @@ from flylog.ros2.bag import open_bag
 from flylog.ros2.config import BagOptions
 from flylog.ros2.export import export_ros2
 from flylog.ros2.source import BagSource
-from flylog.ros2.truth import bag_trajectories
 from flylog.sensors import OdomReading
+from flylog.sources.bag import bag_trajectories
 from tests.ros2 import bags
 from tests.ros2.bags import BagSpec
 

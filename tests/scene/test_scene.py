@@ -52,23 +52,31 @@ BOX = '[[obstacles]]\nkind = "box"\ncenter = [1.0, 1.0]\nsize = [1.0, 1.0]\n'
 @pytest.mark.parametrize(
     ("body", "message"),
     [
-        (BOX * 2 + '[[obstacles]]\nkind = "box"\ncenter = [1.0, 1.0]\nsize = [1.0, 1.0]\n'
-         "height = -1.0\n",
-         r"f\.toml: field 'obstacles\[2\]\.height': must be at least 0\.001 m, got -1\.0"),
-        ('[[obstacles]]\nkind = "wall"\ncenter = [1.0, 1.0]\n',
-         r"f\.toml: obstacles\[0\]: a wall takes start and end, not 'center'"),
-        ('[[obstacles]]\nkind = "cylinder"\ncenter = [1.0, 1.0]\n',
-         r"obstacles\[0\]: a cylinder needs 'radius'"),
+        (
+            BOX * 2 + '[[obstacles]]\nkind = "box"\ncenter = [1.0, 1.0]\nsize = [1.0, 1.0]\n'
+            "height = -1.0\n",
+            r"f\.toml: field 'obstacles\[2\]\.height': must be at least 0\.001 m, got -1\.0",
+        ),
+        (
+            '[[obstacles]]\nkind = "wall"\ncenter = [1.0, 1.0]\n',
+            r"f\.toml: obstacles\[0\]: a wall takes start and end, not 'center'",
+        ),
+        (
+            '[[obstacles]]\nkind = "cylinder"\ncenter = [1.0, 1.0]\n',
+            r"obstacles\[0\]: a cylinder needs 'radius'",
+        ),
         ('[[obstacles]]\nkind = "cone"\n', r"'obstacles\[0\]\.kind': expected one of 'box'"),
-        ('[[obstacles]]\ncenter = [1.0, 1.0]\n', r"missing field 'obstacles\[0\]\.kind'"),
-        ('[robot]\nstart = [0.0, 0.0]\n', r"'robot\.start': expected a list of 3 values"),
+        ("[[obstacles]]\ncenter = [1.0, 1.0]\n", r"missing field 'obstacles\[0\]\.kind'"),
+        ("[robot]\nstart = [0.0, 0.0]\n", r"'robot\.start': expected a list of 3 values"),
         ("[camera]\nwidht = 320\n", r"unknown field 'camera\.widht'"),
-        ('[drive]\nwaypoints = [[1.0, 2.0]]\ncommands = [{ t_start = 0.0 }]\n',
-         r"drive: give either 'waypoints' or 'commands', not both"),
+        (
+            "[drive]\nwaypoints = [[1.0, 2.0]]\ncommands = [{ t_start = 0.0 }]\n",
+            r"drive: give either 'waypoints' or 'commands', not both",
+        ),
         ("[drive]\ncommands = [{ v = 1.0 }]\n", r"missing field 'drive\.commands\[0\]\.t_start'"),
         ("[[obstacles]\n", r"f\.toml: not valid TOML"),
     ],
-)  # fmt: skip
+)
 def test_bad_scene_files_name_file_and_field(body, message):
     with pytest.raises(ConfigError, match=message):
         parse_scene('name = "x"\n' + body, "f.toml")
@@ -135,11 +143,22 @@ def test_ray_hit_numba_matches_numpy():
         ref = np.array(ray_hits_numpy(fp, ox, oy, dx, dy))
         got = np.array(
             [
-                ray_hit(fp.kind[k], fp.cx[k], fp.cy[k], fp.cos[k], fp.sin[k], fp.hx[k],
-                        fp.hy[k], ox, oy, dx, dy)
+                ray_hit(
+                    fp.kind[k],
+                    fp.cx[k],
+                    fp.cy[k],
+                    fp.cos[k],
+                    fp.sin[k],
+                    fp.hx[k],
+                    fp.hy[k],
+                    ox,
+                    oy,
+                    dx,
+                    dy,
+                )
                 for k in range(len(fp))
             ]
-        ).T  # fmt: skip
+        ).T
         hit = np.isfinite(ref[0])
         assert np.array_equal(hit, np.isfinite(got[0]))
         assert got[:, hit] == pytest.approx(ref[:, hit], abs=1e-12)

@@ -21,5 +21,13 @@ def test_cells_go_out_longest_first_and_an_unreadable_log_last(
     # near-obstacle: flies 96 (seeds 0, 1), 160 (seeds 0, 1); bad.mcap: the same four
     assert estimated_work(cells) == pytest.approx([span * 96] * 2 + [span * 160] * 2 + [0.0] * 4)
     got = [(c.input == str(NEAR), c.config.engine.flies, c.seed) for c in longest_first(cells)]
-    assert got == [(True, 160, 0), (True, 160, 1), (True, 96, 0), (True, 96, 1),
-                   (False, 96, 0), (False, 96, 1), (False, 160, 0), (False, 160, 1)]  # fmt: skip
+    assert got == [
+        (True, 160, 0),
+        (True, 160, 1),
+        (True, 96, 0),
+        (True, 96, 1),
+        (False, 96, 0),
+        (False, 96, 1),
+        (False, 160, 0),
+        (False, 160, 1),
+    ]

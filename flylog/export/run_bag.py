@@ -39,8 +39,11 @@ from flylog.io import contract, open_log
 from flylog.io.atomic import check_new_directory, staged_directory
 from flylog.io.reader import LogReader
 from flylog.io.records import FlyCloud, GridValues, LogMessage
+from flylog.metrics.config import MetricsConfig
+from flylog.metrics.provenance import check_run_log
+from flylog.metrics.result import run_facts
 from flylog.ros2 import types
-from flylog.ros2.export import Bag, ExportSummary, Translation
+from flylog.ros2.export import ExportBag, ExportSummary, LogTranslation
 from flylog.ros2.messages import ImageFormat
 from flylog.ros2.run_messages import (
     OCCUPANCY_GRID,
@@ -51,6 +54,7 @@ from flylog.ros2.run_messages import (
     RunBuilder,
 )
 from flylog.ros2.source import GOAL_KEY
+from flylog.sources.inputs import log_rig
 
 FLIES = "/flies"
 OBSTACLE_FLIES = "/flies/obstacles"
@@ -127,27 +131,22 @@ def export_run_ros2(
     setup = RunExport(_rule(reader), rig, frame, confidence, tf=log_reader is None)
     goal = reader.metadata().get(contract.REPLAY_METADATA, {}).get("goal")
     with staged_directory(output) as directory:
-        bag = Bag(directory)
+        bag = ExportBag(directory)
         if goal is not None:
             bag.writer.set_custom_data(GOAL_KEY, json.dumps(json.loads(goal)))
         with bag.writer:
             if log_reader is not None:
-                Translation(bag, image_format).run(log_reader, truth, on_progress)
+                LogTranslation(bag, image_format).run(log_reader, truth, on_progress)
             RunTranslation(bag, setup).run(reader, on_progress)
     return ExportSummary(output, bag.count, bag.topics)
 
 
 def _rule(reader: LogReader) -> ObstacleFlies:
-    from flylog.metrics.config import MetricsConfig
-    from flylog.metrics.score import run_facts
-
     return run_facts(reader, MetricsConfig()).rule
 
 
 def _check_pair(run: LogReader, log: LogReader) -> None:
     """LogError when the run's metadata names another log than ``log`` (its fingerprint)."""
-    from flylog.metrics.provenance import check_run_log
-
     replayed = run.metadata().get(contract.REPLAY_METADATA, {})
     if contract.LEFT_IMAGE not in log.topics():
         msg = f"--with-log {log.path} has no {contract.LEFT_IMAGE}: is it a flylog sensor log?"
@@ -167,8 +166,6 @@ def _rig_source(run: LogReader) -> LogReader:
         named = str(Path(run.path).parent / Path(named).name)
         if not Path(named).is_file():
             return run
-    from flylog.metrics.provenance import check_run_log
-
     try:
         check_run_log(run.path, named, replayed)
         return open_log(named)
@@ -183,8 +180,6 @@ def _left_camera(reader: LogReader) -> tuple[StereoRig | None, str]:
     present = reader.topics()
     if not all(t in present for t in contract.CALIBRATION_TOPICS.values()):
         return None, frame
-    from flylog.replay.inputs import log_rig
-
     dataset = reader.metadata().get(contract.DATASET_METADATA, {})
     mounted = dataset.get("mount") != contract.MOUNT_NONE
     return log_rig(reader, mounted=mounted), frame
@@ -193,7 +188,7 @@ def _left_camera(reader: LogReader) -> tuple[StereoRig | None, str]:
 class RunTranslation:
     """The run's messages, one by one, as ROS 2 messages."""
 
-    def __init__(self, bag: Bag, setup: RunExport) -> None:
+    def __init__(self, bag: ExportBag, setup: RunExport) -> None:
         self.bag = bag
         self.setup = setup
         self.build = RunBuilder(bag.store)

@@ -1,5 +1,5 @@
-"""What replay reads, whatever the input: a flylog log or a ROS 2 bag, as the same
-ReplayInputs and the same stream of paired sensor records."""
+"""What replay reads, whatever the input: a flylog log (a simulated or an imported one) or a
+ROS 2 bag, as the same ReplayInputs and the same stream of paired sensor records."""
 
 from __future__ import annotations
 
@@ -10,11 +10,11 @@ from pathlib import Path
 
 from flylog.geometry import Pose2D
 from flylog.io.pairing import pair_stereo
-from flylog.io.reader import open_log
+from flylog.io.reader import LogReader
 from flylog.io.records import LogMessage
-from flylog.replay.inputs import SENSOR_TOPICS, ReplayInputs, replay_inputs
-from flylog.ros2 import is_bag
 from flylog.ros2.config import BagOptions
+from flylog.ros2.source import BagSource
+from flylog.sources.inputs import SENSOR_TOPICS, ReplayInputs, replay_inputs
 
 # Messages decoded ahead of the replay by a reading thread: about ten frames of stereo pairs
 # (≈ 20 MB at 640×480), enough to hide a chunk's decompression behind the engine's work.
@@ -41,19 +41,18 @@ class ReplaySource:
         return self._unpaired()
 
 
-def open_source(
-    log: Path, *, goal: tuple[float, float] | None, bag: BagOptions | None = None
-) -> ReplaySource:
-    """The replay source of ``log``: a ROS 2 bag if it is one (options ``bag``), else a
-    flylog log (which must give a goal, in its metadata or ``goal``)."""
-    if not is_bag(log):
-        reader = open_log(log)
-        inputs = replay_inputs(reader, goal=goal)
-        stream = pair_stereo(reader.messages(SENSOR_TOPICS, read_ahead=READ_AHEAD_MESSAGES))
-        return ReplaySource(inputs, stream, inputs.has_planner, lambda: 0)
-    from flylog.ros2.source import BagSource
+def log_source(reader: LogReader, *, goal: tuple[float, float] | None) -> ReplaySource:
+    """The replay source of a flylog log (which must give a goal, in its metadata or
+    ``goal``)."""
+    inputs = replay_inputs(reader, goal=goal)
+    stream = pair_stereo(reader.messages(SENSOR_TOPICS, read_ahead=READ_AHEAD_MESSAGES))
+    return ReplaySource(inputs, stream, inputs.has_planner, lambda: 0)
 
-    source = BagSource(log, bag or BagOptions())
+
+def bag_source(log: Path, *, goal: tuple[float, float] | None, bag: BagOptions) -> ReplaySource:
+    """The replay source of a ROS 2 bag (options ``bag``): without a goal, given or in the
+    bag, the planner is off (a warning says so)."""
+    source = BagSource(log, bag)
     start = source.start or Pose2D(0.0, 0.0, 0.0)
     goal = goal or source.goal
     if goal is None:

@@ -1,5 +1,7 @@
-"""What a sensor log says is true: the scene, the camera rig, the true and odometric
-trajectories (``/truth/pose``, ``/odom``). The true views themselves are the simulator's
+"""What a flylog log says is true: the scene, the camera rig, the true and odometric
+trajectories (``/truth/pose``, ``/odom``), and the trajectories a log or run file holds
+(``flylog export --tum``). The types (:class:`LogTruth`) are every input's: a ROS 2 bag's
+truth (:mod:`flylog.sources.bag`) is one too. The true views themselves are the simulator's
 depth path (``flylog.sim.render.Renderer.render_depth``), redone in numpy for batches of
 views by ``flylog.sim.depth`` and tested equal to it bit for bit.
 
@@ -23,11 +25,10 @@ import numpy as np
 from flylog.config import from_mapping
 from flylog.errors import ConfigError, LogError
 from flylog.geometry import StereoRig
-from flylog.io import contract, open_log, require_topics
+from flylog.io import contract, require_topics
 from flylog.io.reader import LogReader
-from flylog.metrics.trajectory import Trajectory, trajectory
-from flylog.ros2.detect import is_bag
 from flylog.scene.load import Scene, parse_scene
+from flylog.sources.trajectory import Trajectory, trajectory
 
 SCENE_ATTACHMENT = "scene.toml"
 
@@ -151,14 +152,9 @@ def recorded_trajectories(reader: LogReader) -> dict[str, Trajectory] | None:
     return found
 
 
-def read_truth(path: str | Path) -> LogTruth:
-    """Scene, rig and trajectories of a sensor log or a ROS 2 bag (LogError naming what
-    is missing)."""
-    if is_bag(path):
-        from flylog.ros2.truth import bag_truth
-
-        return bag_truth(path)
-    reader = open_log(path)
+def log_truth(reader: LogReader) -> LogTruth:
+    """Scene, rig and trajectories of a flylog sensor log (LogError naming what is
+    missing)."""
     require_topics(reader, [contract.TRUTH_POSE, contract.ODOM])
     scene = read_scene(reader)
     poses = recorded_trajectories(reader)
@@ -167,10 +163,43 @@ def read_truth(path: str | Path) -> LogTruth:
         poses = read_poses(reader, [contract.TRUTH_POSE, contract.ODOM])
         source = TrajectorySource.TOPICS
     return LogTruth(
-        path=Path(path),
+        path=Path(reader.path),
         scene=scene,
         rig=read_rig(reader, scene),
         true=poses[contract.TRUTH_POSE],
         odom=poses[contract.ODOM],
         source=source,
     )
+
+
+def planned_trajectory(reader: LogReader) -> Trajectory:
+    """The first pose of each ``/planner/path`` message, at its log time."""
+    times, poses = [], []
+    for m in reader.messages([contract.PLANNER_PATH]):
+        if len(m.value):
+            times.append(m.log_time_ns)
+            poses.append(tuple(m.value[0]))
+    return trajectory(times, poses)
+
+
+def log_trajectories(reader: LogReader) -> dict[str, Trajectory]:
+    """name (true, odom, planned) → trajectory, for those a log or run file holds."""
+    present = reader.topics()
+    out: dict[str, Trajectory] = {}
+    pose_topics = [t for t in (contract.TRUTH_POSE, contract.ODOM) if t in present]
+    found = recorded_trajectories(reader) or (
+        read_poses(reader, pose_topics) if pose_topics else {}
+    )
+    if contract.TRUTH_POSE in found:
+        out["true"] = found[contract.TRUTH_POSE]
+    if contract.ODOM in found:
+        out["odom"] = found[contract.ODOM]
+    elif contract.TF in present:
+        odom = read_odom_tf(reader)
+        if len(odom):
+            out["odom"] = odom
+    if contract.PLANNER_PATH in present:
+        planned = planned_trajectory(reader)
+        if len(planned):
+            out["planned"] = planned
+    return out

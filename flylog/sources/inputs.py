@@ -147,9 +147,16 @@ def log_rig(reader: LogReader, *, mounted: bool = True) -> StereoRig:
         half_b = -float(right.P[0, 3]) / float(right.P[0, 0]) / 2.0
         level = Mount(np.array([0.0, half_b, 0.0]), OPTICAL_TO_BASE.copy())
         return calibrated_rig(
-            size, left.P, right.P, level, None, frame_rate,
-            where=where, calibration=calibration, transforms=contract.TF,
-        )  # fmt: skip
+            size,
+            left.P,
+            right.P,
+            level,
+            None,
+            frame_rate,
+            where=where,
+            calibration=calibration,
+            transforms=contract.TF,
+        )
     require_topics(reader, [contract.TF])
     mounts: dict[str, Mount] = {}
     for m in reader.messages([contract.TF]):
@@ -167,7 +174,13 @@ def log_rig(reader: LogReader, *, mounted: bool = True) -> StereoRig:
         )
         raise LogError(msg)
     return calibrated_rig(
-        size, left.P, right.P,
-        mounts[contract.CAMERA_FRAMES["left"]], mounts[contract.CAMERA_FRAMES["right"]],
-        frame_rate, where=where, calibration=calibration, transforms=contract.TF,
-    )  # fmt: skip
+        size,
+        left.P,
+        right.P,
+        mounts[contract.CAMERA_FRAMES["left"]],
+        mounts[contract.CAMERA_FRAMES["right"]],
+        frame_rate,
+        where=where,
+        calibration=calibration,
+        transforms=contract.TF,
+    )

@@ -1,4 +1,4 @@
-"""Trajectories and ground truth of a bag, for ``flylog export --tum`` and ``flylog metrics
+"""Trajectories and ground truth of a ROS 2 bag, for ``flylog export --tum`` and ``flylog metrics
 --log``: the odometry (the one Odometry topic outside ``/truth/``, else ``/tf`` odom →
 base_link, directly or through a frame ``/tf_static`` connects to it), the true pose
 (``/truth/odom``) and, for metrics, the scene that the exporter of a simulated log stores
@@ -7,16 +7,19 @@ in custom_data."""
 from __future__ import annotations
 
 import os
-import warnings
 from pathlib import Path
 
 from flylog.errors import LogError
 from flylog.io.contract import TRUTH_PREFIX
-from flylog.metrics.trajectory import Trajectory, trajectory
-from flylog.metrics.truth import LogTruth
 from flylog.ros2 import types
 from flylog.ros2.bag import Bag, open_bag, static_tree
+from flylog.ros2.config import BagOptions
 from flylog.ros2.odometry import OdometryReader
+from flylog.ros2.source import SCENE_KEY, BagSource
+from flylog.ros2.topics import assign_roles
+from flylog.scene.load import parse_scene
+from flylog.sources.trajectory import Trajectory, trajectory
+from flylog.sources.truth import LogTruth
 
 TRUTH_ODOM = "/truth/odom"
 
@@ -57,20 +60,14 @@ def bag_trajectories(path: str | os.PathLike[str]) -> dict[str, Trajectory]:
 def bag_truth(path: str | os.PathLike[str]) -> LogTruth:
     """The ground truth of a bag exported from a simulated log (``flylog export --ros2
     --truth``): LogError naming what is missing otherwise."""
-    from flylog.ros2.config import BagOptions
-    from flylog.ros2.source import SCENE_KEY, BagSource
-    from flylog.scene.load import parse_scene
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # replay's warnings (no goal, no odometry)
-        source = BagSource(Path(path), BagOptions())
-    bag = source.bag
+    bag = open_bag(path)
+    roles = assign_roles(bag.path, bag.topics(), {})
     missing = [
         what
         for what, there in (
             (f"{TRUTH_ODOM} (the true pose)", TRUTH_ODOM in bag.topics()),
             (f"custom_data {SCENE_KEY} (the scene)", SCENE_KEY in bag.custom),
-            ("an odometry topic", source.roles.odom is not None),
+            ("an odometry topic", roles.odom is not None),
         )
         if not there
     ]
@@ -80,12 +77,11 @@ def bag_truth(path: str | os.PathLike[str]) -> LogTruth:
             f"(`flylog export LOG --ros2 OUT --truth` writes them)"
         )
         raise LogError(msg)
+    rig = BagSource(Path(path), BagOptions()).rig  # with odometry: nothing to warn of
     found = bag_trajectories(path)
     for name, what in (("true", f"{TRUTH_ODOM} (the true pose)"), ("odom", "the odometry")):
         if name not in found:
             msg = f"{path}: {what} gives no pose that can be read; metrics needs it"
             raise LogError(msg)
     scene = parse_scene(bag.custom[SCENE_KEY], f"{path}: custom_data {SCENE_KEY}")
-    return LogTruth(
-        path=Path(path), scene=scene, rig=source.rig, true=found["true"], odom=found["odom"]
-    )
+    return LogTruth(path=Path(path), scene=scene, rig=rig, true=found["true"], odom=found["odom"])
