@@ -35,6 +35,7 @@ class ObstacleMap:
         self.obstacles = np.zeros(shape, dtype=bool)  # inflated
         self.values = np.zeros(shape)  # Dirichlet values on self.obstacles
         self.current = np.zeros(shape, dtype=bool)  # dense or echoed at the latest update
+        self.recent = np.zeros(shape, dtype=bool)  # dense or echoed since forget_recent
         self.version = 0  # bumped whenever obstacles or values change
         self._seen_free_count = np.zeros(shape, dtype=np.int32)
         self._seen_dense_count = np.zeros(shape, dtype=np.int32)
@@ -106,6 +107,7 @@ class ObstacleMap:
         if echoed is not None:
             self.remembered |= echoed
             self.current |= echoed
+        self.recent |= self.current
         return self._inflate()
 
     def _fly_evidence(
@@ -137,14 +139,22 @@ class ObstacleMap:
         """Forget every obstacle; how many inflated cells changed."""
         self.remembered[:] = False
         self.current[:] = False
+        self.recent[:] = False
         self._seen_free_count[:] = 0
         self._seen_dense_count[:] = 0
         return self._inflate()
 
+    def forget_recent(self) -> None:
+        """Start gathering the evidence :meth:`clear_stale` keeps afresh (from the next
+        update on)."""
+        self.recent[:] = False
+
     def clear_stale(self, keep_distance: float) -> int:
         """Forget the remembered cells farther than ``keep_distance`` (m) from every cell of
-        the latest update's evidence (dense in view, or echoed); how many were forgotten."""
-        near = obs.distance_within(self.current, keep_distance / self.config.cell_size)
+        the evidence (dense in view, or echoed) of the updates since :meth:`forget_recent`
+        (the planner calls it as the look-around begins, so a wall seen anywhere round the
+        robot is kept); how many were forgotten."""
+        near = obs.distance_within(self.recent, keep_distance / self.config.cell_size)
         stale = self.remembered & ~np.isfinite(near)
         self.remembered &= ~stale
         self._inflate()

@@ -249,8 +249,8 @@ class HarmonicPlanner:
         speed is scaled down near the goal (``goal_slowdown``) and near remembered obstacles
         (``obstacle_slowdown``, :meth:`clearance`). STUCK when the distance to the goal has
         not improved by ``stuck_progress`` for ``stuck_time`` (the steering command is still
-        given: the caller decides whether to stop), and once the recoveries of a goal cut
-        off in the map are spent (:mod:`flylog.planner.recovery`: zero velocities)."""
+        given: the caller decides whether to stop). UNREACHABLE (zero velocities) once the
+        recoveries of a goal cut off in the map are spent (:mod:`flylog.planner.recovery`)."""
         cfg = self.config
         dx, dy = self.goal[0] - robot_pose.x, self.goal[1] - robot_pose.y
         distance = math.hypot(dx, dy)
@@ -291,6 +291,8 @@ class HarmonicPlanner:
             if before is not Recovery.NONE:  # the map opened: progress counts from here
                 self._monitor.reset()
             return None
+        if phase is Recovery.LOOK_AROUND and before is not phase:
+            self.map.forget_recent()  # the look-around gathers the evidence clear_stale keeps
         cleared = phase is Recovery.CLEAR_STALE and before is not phase
         if cleared and self.map.clear_stale(cfg.stale_keep_distance):
             self._apply_dirichlet()
@@ -304,7 +306,10 @@ class HarmonicPlanner:
             if self.clearance(back.x, back.y, room) < room:
                 seq.skip_backing_up(t, robot_pose)
         linear, angular = seq.command() or (0.0, 0.0)
-        status = Status.STUCK if stuck or seq.phase is Recovery.EXHAUSTED else Status.DRIVING
+        if seq.phase is Recovery.EXHAUSTED:
+            status = Status.UNREACHABLE
+        else:
+            status = Status.STUCK if stuck else Status.DRIVING
         return Command(linear, angular, status, seq.phase)
 
     def steering_direction(self, robot_pose: Pose2D) -> tuple[float, float]:

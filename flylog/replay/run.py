@@ -56,7 +56,7 @@ STEP_COLUMNS = (
     Column("theta", _F, "rad", "odometric heading"),
     Column("linear", _F, "m/s", "commanded linear velocity"),
     Column("angular", _F, "rad/s", "commanded angular velocity"),
-    Column("status", _S, "", "planner status: driving, goal_reached or stuck"),
+    Column("status", _S, "", "planner status: driving, goal_reached, stuck or unreachable"),
     Column("potential_change", _F, "", "largest change of the tick's last SOR sweep"),
 )
 
