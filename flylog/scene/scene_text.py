@@ -5,6 +5,7 @@ name, duration and seed, the ground, the light, the obstacles, the robot and the
 
 from __future__ import annotations
 
+import numbers
 from typing import Any
 
 from flylog.scene.spec import ObstacleConfig, ObstacleKind, SceneSpec, TextureConfig
@@ -13,8 +14,10 @@ from flylog.scene.spec import ObstacleConfig, ObstacleKind, SceneSpec, TextureCo
 def _value(v: Any) -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
-    if isinstance(v, (int, float)):
-        return repr(v)
+    if isinstance(v, numbers.Integral):
+        return repr(int(v))
+    if isinstance(v, numbers.Real):  # numpy's floats too (their repr is not TOML)
+        return repr(float(v))
     if isinstance(v, str):
         return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
     if isinstance(v, (tuple, list)):
@@ -47,7 +50,7 @@ def scene_text(spec: SceneSpec, header: str = "") -> str:
     lines = [f"# {line}" if line else "#" for line in header.splitlines()]
     lines += [f"name = {_value(spec.name)}", f"seed = {spec.seed}"]
     if spec.duration is not None:
-        lines.append(f"duration = {spec.duration!r}")
+        lines.append(f"duration = {_value(spec.duration)}")
     lines += ["", "[ground.texture]"]
     lines += [f"{k} = {_value(v)}" for k, v in _texture(spec.ground.texture).items()]
     light = spec.lighting
@@ -60,7 +63,7 @@ def scene_text(spec: SceneSpec, header: str = "") -> str:
     lines += [
         f"start = {_value(robot.start)}",
         f"goal = {_value(robot.goal)}",
-        f"radius = {robot.radius!r}",
+        f"radius = {_value(robot.radius)}",
     ]
     if spec.generated is not None:
         g = spec.generated
@@ -68,8 +71,11 @@ def scene_text(spec: SceneSpec, header: str = "") -> str:
         lines.append(f"reachable = {_value(g.reachable)}")
         for k in ("optimal_path_m", "narrowest_gap_m"):
             if getattr(g, k) is not None:
-                lines.append(f"{k} = {getattr(g, k)!r}")
-        lines += [f"difficulty = {g.difficulty!r}", f"check_radius = {g.check_radius!r}"]
+                lines.append(f"{k} = {_value(getattr(g, k))}")
+        lines += [
+            f"difficulty = {_value(g.difficulty)}",
+            f"check_radius = {_value(g.check_radius)}",
+        ]
     for ob in spec.obstacles:
         lines += ["", *_obstacle(ob)]
     return "\n".join(lines) + "\n"
