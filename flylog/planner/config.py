@@ -320,8 +320,9 @@ class PlannerConfig:
     )
     stale_keep_distance: float = param(
         0.5,
-        help="second recovery: remembered obstacle cells farther than this from every cell of "
-        "the latest update's evidence (dense in view, or a sonar echo) are forgotten",
+        help="second recovery: remembered obstacle cells seen since the look-around began "
+        "(in view, not in a shadow) and farther than this from every cell of those updates' "
+        "evidence (dense in view, or a sonar echo) are forgotten",
         unit="m",
         min=0.0,
     )

@@ -36,6 +36,7 @@ class ObstacleMap:
         self.values = np.zeros(shape)  # Dirichlet values on self.obstacles
         self.current = np.zeros(shape, dtype=bool)  # dense or echoed at the latest update
         self.recent = np.zeros(shape, dtype=bool)  # dense or echoed since forget_recent
+        self.recent_seen = np.zeros(shape, dtype=bool)  # in view, not shadowed, since then
         self.version = 0  # bumped whenever obstacles or values change
         self._seen_free_count = np.zeros(shape, dtype=np.int32)
         self._seen_dense_count = np.zeros(shape, dtype=np.int32)
@@ -85,11 +86,13 @@ class ObstacleMap:
         count[rows, cols] = np.where(dense_now, self._seen_dense_count[rows, cols] + 1, 0)
         self._seen_dense_count = count
         detected = dense_now & (count[rows, cols] >= cfg.confirm_after_views)
+        seen = obs.seen_free(in_view, dense_now, rng, bearing, half_fov, cfg.cell_size, vr)
+        self.recent_seen[rows, cols] |= seen | dense_now
         echoed = None
         if sonar_xy is not None and len(sonar_xy):
             echoed = obs.fly_counts(self.geometry, sonar_xy) > 0
         if cfg.clear_free_cells:
-            free = obs.seen_free(in_view, dense_now, rng, bearing, half_fov, cfg.cell_size, vr)
+            free = seen.copy()
             if looked_through is not None:
                 free |= looked_through & in_view
             if sonar_free is not None:
@@ -97,9 +100,9 @@ class ObstacleMap:
             free &= rng >= cfg.clear_min_range
             if echoed is not None:
                 free &= ~echoed[rows, cols]
-            seen = np.zeros_like(self._seen_free_count)
-            seen[rows, cols] = np.where(free, self._seen_free_count[rows, cols] + 1, 0)
-            self._seen_free_count = seen
+            counted = np.zeros_like(self._seen_free_count)
+            counted[rows, cols] = np.where(free, self._seen_free_count[rows, cols] + 1, 0)
+            self._seen_free_count = counted
             self.remembered &= self._seen_free_count < cfg.clear_after_views
         self.remembered[rows, cols] |= detected
         self.current[:] = False
@@ -140,6 +143,7 @@ class ObstacleMap:
         self.remembered[:] = False
         self.current[:] = False
         self.recent[:] = False
+        self.recent_seen[:] = False
         self._seen_free_count[:] = 0
         self._seen_dense_count[:] = 0
         return self._inflate()
@@ -148,14 +152,19 @@ class ObstacleMap:
         """Start gathering the evidence :meth:`clear_stale` keeps afresh (from the next
         update on)."""
         self.recent[:] = False
+        self.recent_seen[:] = False
 
     def clear_stale(self, keep_distance: float) -> int:
-        """Forget the remembered cells farther than ``keep_distance`` (m) from every cell of
-        the evidence (dense in view, or echoed) of the updates since :meth:`forget_recent`
-        (the planner calls it as the look-around begins, so a wall seen anywhere round the
-        robot is kept); how many were forgotten."""
+        """Forget the remembered cells that the cameras saw (in view, not in a shadow) in
+        the updates since :meth:`forget_recent` and that lie farther than ``keep_distance``
+        (m) from every cell of those updates' evidence (dense in view, or echoed); how many
+        were forgotten. The planner calls :meth:`forget_recent` as the look-around begins:
+        a wall seen anywhere round the robot is kept, and so is every cell the look-around
+        could not see (beyond the mapping range, or behind a wall), which no view
+        contradicts."""
         near = obs.distance_within(self.recent, keep_distance / self.config.cell_size)
-        stale = self.remembered & ~np.isfinite(near)
+        seen = obs.distance_within(self.recent_seen, 1.0)  # the cell or a neighbour
+        stale = self.remembered & ~np.isfinite(near) & np.isfinite(seen)
         self.remembered &= ~stale
         self._inflate()
         return int(np.count_nonzero(stale))

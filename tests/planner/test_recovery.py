@@ -125,3 +125,16 @@ def test_cells_seen_during_the_look_around_are_not_stale():
     phases = [c.recovery for _, c, _ in ticks]
     assert phases.index(Recovery.LOOK_AROUND) < 50 < phases.index(Recovery.CLEAR_STALE)
     assert ticks[-1][1].status is Status.UNREACHABLE and p.detected_mask.any()
+
+
+def test_cells_the_look_around_cannot_see_are_not_stale():
+    """As test_clearing_stale_cells_reopens_a_goal_cut_off_by_old_cells, but the ring (1.1
+    m off at its nearest) lies beyond the view range (0.5 m): no view contradicts it, so
+    clear_stale keeps it and the goal is unreachable."""
+    cfg = PlannerConfig(**{**CFG.__dict__, "clear_free_cells": False, "view_range": 0.5})
+    p = HarmonicPlanner.centred_on(cfg, (1.0, 0.0), GOAL)
+    p.update_obstacles(np.empty((0, 2)), Pose2D(0.0, 0.0, 0.0), FOV, sonar_xy=_ring(0.9))
+    ticks = _drive(p, 30.0, None)
+    phases = [c.recovery for _, c, _ in ticks]
+    assert Recovery.CLEAR_STALE in phases and phases[-1] is Recovery.EXHAUSTED
+    assert ticks[-1][1].status is Status.UNREACHABLE and p.detected_mask.any()
