@@ -10,7 +10,8 @@ import sys
 import threading
 import warnings
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
+from pathlib import Path
 from typing import Any, NoReturn, TypeVar
 
 import click
@@ -97,13 +98,41 @@ def debugging() -> bool:
     return os.environ.get(DEBUG_VARIABLE, "") not in ("", "0")
 
 
+class OutputPath(click.Path):
+    """click.Path for an option naming an output (a file or a folder written): an error of
+    the atomic writer about a file names the option that sets it (``_output_parameter``)."""
+
+
+def _output_parameter(ctx: click.Context, path: Any) -> str | None:
+    """The output option (an OutputPath) whose value is ``path``, holds it (a folder), or
+    names it with another suffix (run.mcap → run.parquet); the only one if none matches."""
+    from flylog.io.collisions import same_file
+
+    outputs = [
+        (p.name, Path(ctx.params[p.name]))
+        for p in ctx.command.params
+        if isinstance(p.type, OutputPath) and p.name and ctx.params.get(p.name) is not None
+    ]
+    target = Path(os.fspath(path))
+    for name, given in outputs:
+        if same_file(given, target) or given in target.parents:
+            return name
+        if given.parent == target.parent and target.name.startswith(given.stem + "."):
+            return name
+    return outputs[0][0] if len(outputs) == 1 else None
+
+
 def _option_hint(exc: Any) -> str:
     """'; choose another --output' for an error naming the parameter an option sets."""
     from flylog.errors import LimitError, OutputError
 
     name = getattr(exc, "parameter", None)
     ctx = click.get_current_context(silent=True)
-    if name is None or ctx is None:
+    if ctx is None:
+        return ""
+    if name is None and isinstance(exc, OutputError) and exc.path is not None:
+        name = _output_parameter(ctx, exc.path)
+    if name is None:
         return ""
     for p in ctx.command.params:
         if p.name == name:
@@ -125,11 +154,16 @@ def reports_errors(fn: F) -> F:
     cannot be read or written: the environment's, not flylog's); Ctrl-C exits with 130,
     SIGTERM and SIGHUP with 128 + the signal, each after removing the partial outputs; any
     other exception is a bug in flylog: one line saying so, exit code 1. FLYLOG_DEBUG=1
-    adds the traceback. Library warnings (e.g. a truncated log) become yellow lines."""
+    adds the traceback. Library warnings (e.g. a truncated log) become yellow lines.
+
+    The body runs with its own registry of inputs (flylog.io.inputs.reading): every file
+    the command reads is registered, and the atomic writer refuses an output that would
+    replace one, so no command can forget to declare its inputs."""
 
     @functools.wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
         from flylog.errors import FlylogError
+        from flylog.io.inputs import reading
 
         def show_warning(message, category, filename, lineno, file=None, line=None):
             stderr.print(f"[yellow]warning:[/] {message}", soft_wrap=True)
@@ -137,7 +171,7 @@ def reports_errors(fn: F) -> F:
         previous = warnings.showwarning
         warnings.showwarning = show_warning
         try:
-            with stop_signals_interrupt():
+            with stop_signals_interrupt(), reading():
                 return fn(*args, **kwargs)
         except (click.ClickException, click.exceptions.Exit, click.Abort):
             raise
@@ -177,25 +211,36 @@ def _error(message: str, code: int) -> NoReturn:
 
 @contextmanager
 def progress_bar(
-    description: str, unit: str, console: Console = stderr
+    description: str, unit: str, console: Console = stderr, *, kernels: bool = False
 ) -> Iterator[Callable[[float, float], None]]:
     """A rich progress bar with ETA on ``console``; yields ``update(done, total)`` in ``unit``
     (e.g. "frames", "s" of log time). Nothing drawn when the console is not a terminal.
-    Each update first raises a stop signal's exception that was dropped (raise_if_stopped)."""
-    if not console.is_terminal:  # no bar: rich.progress is not even imported (~10 ms)
+    Each update first raises a stop signal's exception that was dropped (raise_if_stopped).
+    ``kernels``: the block calls numba kernels; their first compilation on this machine
+    prints a line, and the bar counts them (flylog.cli.compiling)."""
+    with ExitStack() as stack:
+        if not console.is_terminal:  # no bar: rich.progress is not even imported (~10 ms)
+            if kernels:
+                from flylog.cli.compiling import compiles_shown
 
-        def checked(done: float, total: float) -> None:
-            raise_if_stopped()
+                stack.enter_context(compiles_shown(console))
 
-        yield checked
-        return
-    from flylog.cli.progress import drawn_progress_bar
+            def checked(done: float, total: float) -> None:
+                raise_if_stopped()
 
-    with drawn_progress_bar(description, unit, console) as update:
+            yield checked
+            return
+        from flylog.cli.progress import drawn_progress_bar
+
+        bar = stack.enter_context(drawn_progress_bar(description, unit, console))
+        if kernels:
+            from flylog.cli.compiling import compiles_shown
+
+            stack.enter_context(compiles_shown(console, bar.note))
 
         def checked_update(done: float, total: float) -> None:
             raise_if_stopped()
-            update(done, total)
+            bar(done, total)
 
         yield checked_update
 

@@ -1,9 +1,9 @@
 """``make demo``: the main job on the bundled default scene, as a user would run it.
 
-Simulates ``fixtures/scenes/corridor.toml``, replays the log through the fly engine and the
-planner, scores the run against ground truth, prints the summary and draws the run on one
-HTML page (``report.html``). Outputs go to the directory given as the first argument
-(default ``demo-out``).
+Simulates the bundled scene ``corridor`` (``fixtures/scenes/corridor.toml``), replays the
+log through the fly engine and the planner, scores the run against ground truth, prints the
+summary and draws the run on one HTML page (``report.html``). Outputs go to the directory
+given as the first argument (default ``demo-out``).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from pathlib import Path
 from flylog.cli.common import stdout
 from flylog.cli.main import cli
 
-SCENE = Path(__file__).resolve().parents[1] / "fixtures" / "scenes" / "corridor.toml"
+SCENE = "corridor"  # bundled with flylog (flylog.scene.bundled)
 DURATION = "10"
 
 
@@ -24,7 +24,7 @@ def main(argv: list[str]) -> int:
     log, run, metrics = out / "corridor.mcap", out / "run.mcap", out / "metrics.parquet"
     report = out / "report.html"
     steps = [
-        ["simulate", str(SCENE), "-o", str(log), "--duration", DURATION, "--seed", "0"],
+        ["simulate", SCENE, "-o", str(log), "--duration", DURATION, "--seed", "0"],
         ["replay", str(log), "-o", str(run), "--seed", "0"],
         ["metrics", str(run), "--log", str(log), "-o", str(metrics)],
         ["report", str(run), "--log", str(log), "-o", str(report)],

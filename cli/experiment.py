@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from flylog.cli.common import Finite, progress_bar, reports_errors, resolution, stdout
+from flylog.cli.common import Finite, OutputPath, progress_bar, reports_errors, resolution, stdout
 
 QUICK_RESOLUTION = (160, 120)
 QUICK_SEEDS = 2
@@ -19,7 +19,7 @@ OWN_DEFAULT_SEEDS = {"navigation": 30}  # worlds per family (flylog.experiments.
 @click.option(
     "-o",
     "--output",
-    type=click.Path(file_okay=False, path_type=Path),
+    type=OutputPath(file_okay=False, path_type=Path),
     default=Path("experiments-out"),
     show_default=True,
     help="Directory to write into: each experiment writes DIR/NAME/summary.md (its table "
@@ -112,7 +112,9 @@ def experiment(
         flies=flies,
         keep_logs=keep_logs,
     )
-    with progress_bar(f"experiment {', '.join(names)}", unit="cells") as update:
+    # The bar counts the cells' expected work, log seconds simulated and replayed: its ETA
+    # weighs each cell by its length (flylog.experiments.parallel.run_plans).
+    with progress_bar(f"experiment {', '.join(names)}", unit="log s") as update:
         results = run_experiments(
             names, output, options, workers=workers or default_workers(), on_progress=update
         )
@@ -121,16 +123,18 @@ def experiment(
 
 
 def _print_result(result, description: str) -> None:
-    from rich.table import Table
-
+    from flylog.cli.tables import print_fitted
     from flylog.experiments.common import format_cell
 
-    table = Table(title=f"{result.name}: {result.table.title}", title_justify="left")
-    for column in result.table.columns:
-        table.add_column(column.header, overflow="fold")
-    for row in result.table.rows:
-        table.add_row(*(format_cell(row.get(c.key), c.fmt) for c in result.table.columns))
-    stdout.print(table)
+    columns = result.table.columns
+    rows = [[format_cell(row.get(c.key), c.fmt) for c in columns] for row in result.table.rows]
+    print_fitted(
+        stdout,
+        f"{result.name}: {result.table.title}",
+        [c.header for c in columns],
+        rows,
+        right=range(1, len(columns)),
+    )
     for line in result.findings:
         stdout.print(f"- {line}", soft_wrap=True)
     stdout.print(

@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import click
 
-from flylog.cli.common import human_bytes, progress_bar, reports_errors, stdout
+from flylog.cli.common import OutputPath, human_bytes, progress_bar, reports_errors, stdout
 
 _FORMATS = ("middlebury", "kitti", "euroc")
 
@@ -17,7 +18,7 @@ _FORMATS = ("middlebury", "kitti", "euroc")
 @click.option(
     "-o",
     "--output",
-    type=click.Path(path_type=Path),
+    type=OutputPath(path_type=Path),
     required=True,
     help="The log to write (atomically); for a folder of several scenes, the folder that "
     "gets one NAME.mcap per scene (made if absent).",
@@ -30,7 +31,7 @@ _FORMATS = ("middlebury", "kitti", "euroc")
 )
 @click.option(
     "--limit",
-    type=click.IntRange(min=1),
+    type=click.IntRange(min=1, max=sys.maxsize),  # itertools.islice's bound
     default=None,
     metavar="N",
     help="Import the first N stereo pairs of each scene or sequence. [default: all]",

@@ -15,6 +15,7 @@ from flylog.process import own_process
 
 # command name → (module in flylog.cli, function name)
 _COMMANDS = {
+    "calibrate": ("calibrate", "calibrate"),
     "simulate": ("simulate", "simulate"),
     "replay": ("replay", "replay"),
     "metrics": ("metrics", "metrics"),
@@ -25,6 +26,7 @@ _COMMANDS = {
     "report": ("report", "report"),
     "import": ("import_", "import_"),
     "scene": ("scene", "scene"),
+    "describe": ("describe", "describe"),
 }
 
 

@@ -8,7 +8,7 @@ from typing import Any
 
 import click
 
-from flylog.cli.common import Finite, progress_bar, reports_errors, stdout
+from flylog.cli.common import Finite, OutputPath, progress_bar, reports_errors, stdout
 
 _SHOWN = (
     ("snapshots", "fly snapshots", ""),
@@ -59,6 +59,10 @@ _IMAGE_SHOWN = (
 )
 
 
+# The packaged confidence model's calibration (flylog.metrics.calibration).
+_CONFIDENCE_SHOWN = ("confidence_ece", "confidence: expected calibration error", "")
+
+
 def _fmt(value: Any) -> str:
     if value is None or (isinstance(value, float) and math.isnan(value)):
         return "—"
@@ -83,10 +87,12 @@ def _fmt(value: Any) -> str:
 @click.option(
     "-o",
     "--output",
-    type=click.Path(dir_okay=False, path_type=Path),
-    required=True,
-    help="Per-snapshot table NAME.parquet; NAME.summary.parquet (one row) and "
-    "NAME.obstacles.parquet are written beside it.",
+    type=OutputPath(dir_okay=False, path_type=Path),
+    default=None,
+    help="Per-snapshot table NAME.parquet; NAME.summary.parquet (one row), "
+    "NAME.obstacles.parquet and, for a run with flies, NAME.reliability.parquet (the "
+    "confidence's reliability diagram) are written beside it. [default: beside the run, "
+    "RUN.metrics.parquet for RUN.mcap]",
 )
 @click.option(
     "--config",
@@ -105,7 +111,7 @@ def _fmt(value: Any) -> str:
 def metrics(
     run: Path,
     log: Path | None,
-    output: Path,
+    output: Path | None,
     config_file: Path | None,
     tau: float | None,
     goal_tolerance: float | None,
@@ -117,14 +123,20 @@ def metrics(
     disparity images, no scene): precision/recall, disparity error, bad1, bad2 and coverage
     of the flies (or SGBM's points, and its dense map). Writes Parquet tables; prints the
     summary."""
-    from rich.table import Table
-
+    from flylog.cli.tables import print_fitted
     from flylog.config import from_mapping, read_toml, replace_dotted
     from flylog.io.collisions import Role, check_outputs
     from flylog.metrics.config import MetricsConfig
-    from flylog.metrics.score import score_run, write_metrics
-    from flylog.metrics.tables import check_output_name, obstacles_path, summary_path
+    from flylog.metrics.score import score_run, write_metrics, write_reliability
+    from flylog.metrics.tables import (
+        check_output_name,
+        default_output,
+        obstacles_path,
+        reliability_path,
+        summary_path,
+    )
 
+    output = default_output(run) if output is None else output
     check_output_name(output)  # before the scoring, which takes a while
     inputs = [Role(run, "the run", "run")]
     inputs += [Role(log, "the sensor log", "log")] if log is not None else []
@@ -133,6 +145,7 @@ def metrics(
         Role(output, "the snapshot table", "output"),
         Role(summary_path(output), "the summary table", "output"),
         Role(obstacles_path(output), "the obstacle table", "output"),
+        Role(reliability_path(output), "the reliability table", "output"),
     ]
     check_outputs(inputs, outputs)
 
@@ -144,13 +157,15 @@ def metrics(
     )
     with progress_bar(f"metrics {run.name}", unit="s") as update:
         result = score_run(run, log if log is not None else run, config, on_progress=update)
-    paths = write_metrics(result, output)
-    table = Table(title=f"metrics of {run}", title_justify="left")
-    table.add_column("metric")
-    table.add_column("value", justify="right")
-    table.add_column("unit")
+    paths: list[Path] = [*write_metrics(result, output)]
+    reliability = write_reliability(result, output)
+    paths += [reliability] if reliability is not None else []
     shown = _SHOWN if result.summary.get("truth_images") is None else _IMAGE_SHOWN
-    for key, label, unit in shown:
-        table.add_row(label, _fmt(result.summary[key]), unit)
-    stdout.print(table)
+    # Rows with a value for this run only: a replay has no time to goal, a fly run on a
+    # dataset no SGBM dense map.
+    rows = [
+        [label, _fmt(result.summary[key]), unit] for key, label, unit in (*shown, _CONFIDENCE_SHOWN)
+    ]
+    rows = [row for row in rows if row[1] != "—"]
+    print_fitted(stdout, f"metrics of {run}", ["metric", "value", "unit"], rows, right=[1])
     stdout.print("wrote " + ", ".join(str(p) for p in paths))

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from contextlib import contextmanager
 
 from rich.console import Console
@@ -12,6 +12,7 @@ from rich.progress import (
     Progress,
     ProgressColumn,
     Task,
+    TaskID,
     TextColumn,
     TimeElapsedColumn,
     TimeRemainingColumn,
@@ -35,10 +36,23 @@ class AmountColumn(ProgressColumn):
         return Text(f"{task.completed:.1f}/{total} {self.unit}")
 
 
+class DrawnBar:
+    """``bar(done, total)`` moves the bar; ``bar.note(text)`` shows ``text`` after the
+    description ("" clears it)."""
+
+    def __init__(self, progress: Progress, task: TaskID, description: str) -> None:
+        self.progress, self.task, self.description = progress, task, description
+
+    def __call__(self, done: float, total: float) -> None:
+        self.progress.update(self.task, completed=done, total=total)
+
+    def note(self, text: str) -> None:
+        shown = f"{self.description} ({text})" if text else self.description
+        self.progress.update(self.task, description=shown)
+
+
 @contextmanager
-def drawn_progress_bar(
-    description: str, unit: str, console: Console
-) -> Iterator[Callable[[float, float], None]]:
+def drawn_progress_bar(description: str, unit: str, console: Console) -> Iterator[DrawnBar]:
     """``flylog.cli.common.progress_bar`` on a terminal."""
     count = MofNCompleteColumn() if unit in COUNTED_UNITS else AmountColumn(unit)
     columns = (
@@ -50,9 +64,4 @@ def drawn_progress_bar(
         TimeRemainingColumn(),
     )
     with Progress(*columns, console=console) as bar:
-        task = bar.add_task(description, total=None)
-
-        def update(done: float, total: float) -> None:
-            bar.update(task, completed=done, total=total)
-
-        yield update
+        yield DrawnBar(bar, bar.add_task(description, total=None), description)

@@ -6,7 +6,15 @@ from pathlib import Path
 
 import click
 
-from flylog.cli.common import Finite, limit_options, point, progress_bar, reports_errors, stdout
+from flylog.cli.common import (
+    Finite,
+    OutputPath,
+    limit_options,
+    point,
+    progress_bar,
+    reports_errors,
+    stdout,
+)
 from flylog.cli.main import freeze_imported_objects
 
 
@@ -15,7 +23,7 @@ from flylog.cli.main import freeze_imported_objects
 @click.option(
     "-o",
     "--output",
-    type=click.Path(dir_okay=False, path_type=Path),
+    type=OutputPath(dir_okay=False, path_type=Path),
     required=True,
     help="RUN.mcap to write; the per-step table goes beside it as RUN.parquet. Both are "
     "written atomically: after a failure or Ctrl-C neither exists.",
@@ -179,7 +187,7 @@ def replay(
         BagOptions(),
         {"topics": topics or None, "pair_tolerance": pair_tolerance, "sonar_window": sonar_window},
     )
-    with progress_bar(f"replay {log.name}", unit="s") as update:
+    with progress_bar(f"replay {log.name}", unit="s", kernels=True) as update:
         summary = run_replay(
             log,
             output,

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from flylog.cli.common import reports_errors, stdout
+from flylog.cli.common import OutputPath, reports_errors, stdout
 
 
 @click.command()
@@ -32,13 +32,14 @@ from flylog.cli.common import reports_errors, stdout
 @click.option(
     "-o",
     "--output",
-    type=click.Path(dir_okay=False, path_type=Path),
-    required=True,
+    type=OutputPath(dir_okay=False, path_type=Path),
+    default=None,
     help="REPORT.html to write (atomically), one self-contained file: images embedded, "
-    "nothing fetched from a network.",
+    "nothing fetched from a network. [default: DIR/report.html for a sweep's directory, "
+    "RUN.html beside RUN.mcap for a run]",
 )
 @reports_errors
-def report(target: Path, log: Path | None, metrics: Path | None, output: Path) -> None:
+def report(target: Path, log: Path | None, metrics: Path | None, output: Path | None) -> None:
     """Draw TARGET on one HTML page. TARGET is a run (RUN.mcap from `flylog replay`, or a
     closed-loop log): its metrics summary, a top-down map with the trajectories and
     obstacle flies, left frames with the flies drawn, curves over time and its
@@ -49,9 +50,10 @@ def report(target: Path, log: Path | None, metrics: Path | None, output: Path) -
             raise click.UsageError("--log and --metrics go with a run, not a sweep's directory")
         from flylog.report.sweep import sweep_report
 
-        path = sweep_report(target, output)
+        path = sweep_report(target, target / "report.html" if output is None else output)
     else:
         from flylog.report.run import run_report
 
+        output = target.with_suffix(".html") if output is None else output
         path = run_report(target, log, output, metrics=metrics)
     stdout.print(f"wrote {path} ({path.stat().st_size / 1024:.0f} KiB)", soft_wrap=True)

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from flylog.cli.common import Finite, progress_bar, reports_errors, stdout
+from flylog.cli.common import Finite, OutputPath, progress_bar, reports_errors, stdout
 
 _FAMILIES = ("passages", "clutter", "dead-end")
 
@@ -51,7 +51,7 @@ def scene() -> None:
 @click.option(
     "-o",
     "--output",
-    type=click.Path(path_type=Path),
+    type=OutputPath(path_type=Path),
     required=True,
     help="The scene file to write (with --seeds: the folder).",
 )
@@ -86,7 +86,13 @@ def generate(
     0.05 m margin) exists (dead-end: provably none), its length stored in the file."""
     from flylog.errors import ConfigError
     from flylog.io.atomic import write_text
-    from flylog.scene.generate import Family, GenerateConfig, generate_text
+    from flylog.scene.generate import (
+        Family,
+        GenerateConfig,
+        check_world_folder,
+        generate_text,
+        write_worlds,
+    )
 
     lo, hi = passage_width
     if lo > hi:
@@ -98,12 +104,11 @@ def generate(
         write_text(output, generate_text(kind, seed, config))
         stdout.print(f"{output}: {family} world, seed {seed}")
         return
+    check_world_folder(output, len(seeds))
     texts = {}
     with progress_bar(f"{family} worlds", "worlds") as update:
         for k, s in enumerate(seeds):
-            texts[s] = generate_text(kind, s, config)
+            texts[output / f"{family}-{s}.toml"] = generate_text(kind, s, config)
             update(k + 1, len(seeds))
-    output.mkdir(parents=True, exist_ok=True)
-    for s, text in texts.items():
-        write_text(output / f"{family}-{s}.toml", text)
+    write_worlds(texts, output)
     stdout.print(f"{output}: {len(texts)} {family} worlds, seeds {seeds[0]}-{seeds[-1]}")

@@ -67,6 +67,13 @@ class Limits:
 
 DEFAULT_LIMITS = Limits()
 
+# A sweep's default bounds (flylog.sweep.limits), checked from its spec: a 10 000-cell sweep
+# of ~2 s cells (the fixture logs' at the tiny test settings) runs for hours on a
+# workstation, and planning a million cells alone takes over a minute; its estimated output
+# is bounded as simulate's and replay's are.
+SWEEP_MAX_CELLS = 10_000
+SWEEP_MAX_OUTPUT_SIZE = DEFAULT_LIMITS.max_output_size
+
 
 @dataclass(frozen=True)
 class Estimate:
@@ -80,19 +87,19 @@ class Estimate:
         """Raise LimitError if the estimate is over a limit (``parameter``: that limit)."""
         if self.output_bytes > limits.max_output_size:
             msg = (
-                f"{self.job} would write about {_size(self.output_bytes)}, over the limit of "
-                f"{_size(limits.max_output_size)} on outputs"
+                f"{self.job} would write about {size_text(self.output_bytes)}, over the limit of "
+                f"{size_text(limits.max_output_size)} on outputs"
             )
             raise LimitError(msg, parameter="max_output_size")
         if self.memory_bytes > limits.max_memory:
             msg = (
-                f"{self.job} would need about {_size(self.memory_bytes)} of memory, over the "
-                f"limit of {_size(limits.max_memory)}"
+                f"{self.job} would need about {size_text(self.memory_bytes)} of memory, over the "
+                f"limit of {size_text(limits.max_memory)}"
             )
             raise LimitError(msg, parameter="max_memory")
 
 
-def _size(n: float) -> str:
+def size_text(n: float) -> str:
     for unit, scale in (("TiB", 2**40), ("GiB", GIB), ("MiB", 2**20)):
         if n >= scale:
             return f"{n / scale:.3g} {unit}"
@@ -117,9 +124,8 @@ def simulation_estimate(
     return Estimate(f"a {duration:g} s simulation", output, memory)
 
 
-def replay_estimate(config: ReplayConfig, rig: StereoRig, duration: float) -> Estimate:
-    """A replay (or closed loop) of ``duration`` seconds of log: its snapshots, the planner's
-    grids and the stereo pairs read ahead."""
+def replay_output_bytes(config: ReplayConfig, duration: float) -> float:
+    """What a replay (or closed loop) of ``duration`` seconds of log writes: its snapshots."""
     side = config.planner.cells
     snapshots = duration * config.snapshot_rate + 1
     per_snapshot = (
@@ -128,13 +134,20 @@ def replay_estimate(config: ReplayConfig, rig: StereoRig, duration: float) -> Es
         + OVERLAY_FLY_BYTES * config.overlay_flies
         + PATH_BYTES_PER_SIDE_CELL * side
     )
+    return snapshots * per_snapshot
+
+
+def replay_estimate(config: ReplayConfig, rig: StereoRig, duration: float) -> Estimate:
+    """A replay (or closed loop) of ``duration`` seconds of log: its snapshots, the planner's
+    grids and the stereo pairs read ahead."""
+    side = config.planner.cells
     memory = (
         REPLAY_PROGRAM_BYTES
         + PLANNER_BYTES_PER_CELL * side * side
         + FLY_MEMORY_BYTES * config.engine.flies
         + READ_AHEAD_PAIRS * 2 * rig.width * rig.height * 3
     )
-    return Estimate(f"a replay of {duration:g} s", snapshots * per_snapshot, memory)
+    return Estimate(f"a replay of {duration:g} s", replay_output_bytes(config, duration), memory)
 
 
 def check_sampling_rates(config: ReplayConfig, frame_rate: float, *, source: str) -> None:

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from flylog.errors import ConfigError
+from flylog.io.inputs import open_input
 
 T = TypeVar("T")
 
@@ -48,7 +49,7 @@ def describe(cls: type, name: str) -> str:
 def read_toml(path: Path) -> dict[str, Any]:
     """Parse a TOML file, turning every failure into a ConfigError naming the file."""
     try:
-        with Path(path).open("rb") as fh:
+        with open_input(path, "the TOML file") as fh:
             return tomllib.load(fh)
     except FileNotFoundError:
         msg = f"{path}: no such file"

@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 import enum
 import re
+import textwrap
 import types
 import typing
 from collections.abc import Iterator, Mapping, Sequence
@@ -277,8 +278,12 @@ def _default_tolerances() -> list[str]:
     lines = [
         "### Default tolerances",
         "",
-        "A metric is judged only if it has a tolerance; the candidate regresses if its mean "
-        "is worse than the base's by more than max(absolute, relative × |base mean|).",
+        "A metric is judged only if it has a tolerance (a wall-clock figure only with one "
+        "given for it; in open loop the trajectory's figures never: they are the log's). The "
+        "candidate regresses if its worsening exceeds max(absolute, relative × |base mean|) "
+        "with confidence 1 − alpha ([metrics.md](metrics.md#comparing-runs)). The run's metrics' "
+        "defaults are their seed-to-seed sd on the bundled scenes, rounded up; the "
+        "trajectory's are not measured.",
         "",
         "| metric | direction | absolute | relative |",
         "|---|---|---|---|",
@@ -316,3 +321,51 @@ def configuration_md() -> str:
 
 def _anchor(title: str) -> str:
     return re.sub(r"[^a-z0-9 -]", "", title.lower()).replace(" ", "-")
+
+
+def _comment(text: str, width: int = 88) -> list[str]:
+    return textwrap.wrap(
+        " ".join(text.split()), width - 2, initial_indent="# ", subsequent_indent="# "
+    ) or ["#"]
+
+
+def _toml_value(value: Any) -> str | None:
+    """A default written as TOML, None for an unset (optional) value, which TOML cannot
+    spell."""
+    if to_mapping(value) is None:
+        return None
+    return value_text(value)
+
+
+def sample_toml(cf: ConfigFile) -> str:
+    """An annotated file of the kind ``cf``: every key at its default, each with its meaning,
+    unit and range in a comment above it. Optional tables and arrays of tables are written
+    commented out, since writing them changes the configuration."""
+    lines = [
+        f"# {cf.title}, every key at its default: a file to start from. Made by `make docs`",
+        "# from the code (tests/test_docs.py checks it is current); a key left out keeps its",
+        "# default, so a real file holds only the keys it changes.",
+        *_comment(f"Read by {cf.read_by}. {cf.about}".replace("`", "")),
+    ]
+    for table in walk_tables(cf.root, None):
+        off = table.form != "table" or any(
+            part.form != "table"
+            for part in walk_tables(cf.root, None)
+            if part.path and (table.path + ".").startswith(part.path + ".")
+        )
+        prefix = "# " if off else ""
+        lines.append("")
+        what = [s[:1].upper() + s[1:] for s in (table.help, _docstring(table.cls)) if s]
+        if what:
+            lines += _comment(" ".join(s if s.endswith(".") else s + "." for s in what))
+        if table.path:
+            bracket = "[[{}]]" if table.form == "array of tables" else "[{}]"
+            lines.append(prefix + bracket.format(table.path))
+        for key in table.keys:
+            notes = "; ".join(s for s in (key.unit, key.range) if s)
+            lines += _comment(f"{key.help} ({notes})" if notes else key.help)
+            if key.default in ("unset", "required"):
+                lines.append(f"# {key.name} = ({key.default}: {key.type})")
+            else:
+                lines.append(f"{prefix}{key.name} = {key.default}")
+    return "\n".join(lines) + "\n"

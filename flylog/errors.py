@@ -24,8 +24,16 @@ class LogError(FlylogError):
 
 
 class OutputError(FlylogError):
-    """An output cannot be written: it is one of the inputs or another output, or its
-    directory is missing or not writable."""
+    """An output cannot be written: it is one of the inputs or another output, it is not a
+    regular file, or its directory is missing or not writable. ``path``: the output, for
+    the command line to find the option that sets it when ``parameter`` is not known (the
+    atomic writer knows the file, not the option)."""
+
+    def __init__(
+        self, message: str, *, parameter: str | None = None, path: object | None = None
+    ) -> None:
+        super().__init__(message, parameter=parameter)
+        self.path = path
 
 
 class LimitError(FlylogError):

@@ -2,9 +2,10 @@
 
 ``docs/configuration.md`` (:mod:`flylog.config_reference`), and in ``docs/metrics.md`` the
 Parquet schemas between ``<!-- generated: NAME -->`` and ``<!-- end generated -->`` markers,
-from the ``Column`` tuples the writers use. ``python -m flylog.reference_docs [DOCS_DIR]``
-(``make docs``) rewrites what is out of date; ``--check`` only reports it (exit code 1), as
-the test does.
+from the ``Column`` tuples the writers use; and beside ``docs/``, the annotated sample
+``fixtures/replay.toml`` (every replay key at its default, ``sample_toml``).
+``python -m flylog.reference_docs [DOCS_DIR]`` (``make docs``) rewrites what is out of
+date; ``--check`` only reports it (exit code 1), as the test does.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-from flylog.config_reference import configuration_md
+from flylog.config_reference import config_files, configuration_md, sample_toml
 from flylog.io.atomic import publish, temporary_beside
 
 
@@ -63,6 +64,9 @@ def expected_pages(docs: Path) -> dict[Path, str]:
     pages = {docs / "configuration.md": configuration_md()}
     if metrics.exists():
         pages[metrics] = fill_blocks(metrics.read_text(encoding="utf-8"))
+    fixtures = docs.parent / "fixtures"
+    if fixtures.is_dir():
+        pages[fixtures / "replay.toml"] = sample_toml(config_files()[0])
     return pages
 
 

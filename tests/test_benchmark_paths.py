@@ -30,7 +30,9 @@ def test_every_path_a_benchmark_names_exists(name):
 def test_the_level_only_reference_kernel_agrees_with_the_rig_kernel(parallel):
     """bench_fly times the rig's kernel against the level-only kernel: both must compile
     against today's helpers and give the same fitness on a level rig."""
-    from flylog.fly.fitness import fitness_into
+    from flylog.fly.config import Gradient
+    from flylog.fly.fitness import fitness_into, images_of
+    from flylog.fly.measures import ZSSD
     from flylog.geometry import StereoRig
     from tests.benchmarks.level_fitness import level_constants, level_fitness
 
@@ -45,7 +47,7 @@ def test_the_level_only_reference_kernel_agrees_with_the_rig_kernel(parallel):
     rows = (left.reshape(48, 64 * 3), right.reshape(48, 64 * 3), 3)
     level, general = np.empty(n), np.empty(n)
     level_fitness(*rows, xyz, index, level_constants(rig), level, parallel=parallel)
-    fitness_into(*rows, xyz, index, rig.constants(), 7, 1.0, 1, general,
-                 parallel_min=0 if parallel else n + 1)  # fmt: skip
+    im = images_of(left, right, rig, 7, 1.0, gradient=Gradient.NORM)
+    fitness_into(im, ZSSD, xyz, index, general, parallel_min=0 if parallel else n + 1)
     np.testing.assert_array_equal(level, general)
     assert np.isfinite(level).sum() > n // 2

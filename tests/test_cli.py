@@ -121,3 +121,26 @@ def test_the_installed_command_flushes_its_output_and_keeps_its_exit_codes(tmp_p
     assert missing.returncode == 2 and "no such file" in missing.stderr
     bad = run("replay", "--no-such-option")
     assert bad.returncode == 2 and "No such option" in bad.stderr
+
+
+def test_a_first_compilation_is_announced_and_a_cached_kernel_is_not(tmp_path):
+    """progress_bar(kernels=True) prints one line at the first numba compilation in its
+    block (the first run on a machine compiles for about a minute) and nothing when every
+    kernel is already compiled."""
+    code = (
+        "import io, numba\n"
+        "from rich.console import Console\n"
+        "from flylog.cli.common import progress_bar\n"
+        "@numba.njit\n"
+        "def twice(x):\n"
+        "    return 2 * x\n"
+        "for attempt in range(2):\n"
+        "    out = io.StringIO()\n"
+        "    with progress_bar('replay', 's', console=Console(file=out), kernels=True):\n"
+        "        twice(3)\n"
+        "    print(repr(out.getvalue()))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    first, second = out.stdout.splitlines()
+    assert "compiling flylog's numba kernels, first run only" in first
+    assert second == "''"

@@ -32,6 +32,17 @@ def test_generated_pages_are_current() -> None:
     assert not stale, f"out of date: {[str(p.relative_to(ROOT)) for p in stale]}; run `make docs`"
 
 
+def test_sample_replay_file_loads_to_the_defaults() -> None:
+    """fixtures/replay.toml, the file README's `replay --config` starts from, holds every key
+    at its default: loaded, it is the default configuration (and it is current, above)."""
+    path = ROOT / "fixtures" / "replay.toml"
+    data = tomllib.loads(path.read_text(encoding="utf-8"))
+    assert from_mapping(ReplayConfig, data, source=str(path)) == ReplayConfig()
+    keys = {t.path for t in config_reference.walk_tables(ReplayConfig, None)}
+    assert {"engine", "sgbm", "planner", "obstacles", "heading"} <= keys
+    assert set(data) >= {"engine", "planner", "obstacles", "seed"}
+
+
 def test_configuration_lists_every_key_with_its_default() -> None:
     text = (DOCS / "configuration.md").read_text(encoding="utf-8")
     assert "| `evals_per_second` | float | `3700000.0` | evaluations/s | 1 … 1000000000 |" in text

@@ -27,16 +27,19 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from flylog.datasets.images import read_png
+from flylog.datasets.checks import checked_rig, finite
+from flylog.datasets.images import read_pair
 from flylog.datasets.logwrite import DatasetFrame, Source
 from flylog.errors import LogError
 from flylog.geometry import Pose2D, StereoRig
+from flylog.io.inputs import read_input_text
 
 LAYOUT = (
     "EuRoC MAV: mav0/cam0 and mav0/cam1, each with data.csv, data/ and sensor.yaml, and "
     "mav0/state_groundtruth_estimate0/data.csv (optional)"
 )
 TRUTH = "state_groundtruth_estimate0"
+_MIN_BASELINE_M = 0.001  # StereoRig's smallest baseline
 _LIST = re.compile(r"(\w+)\s*:\s*\[([^\]]*)\]", re.S)
 
 
@@ -57,7 +60,8 @@ class Camera:
 def read_sensor(path: Path) -> Camera:
     """The camera of a ``sensor.yaml`` (the lists flylog needs, read without a YAML parser:
     ``T_BS``'s ``data``, ``resolution``, ``intrinsics``, ``distortion_coefficients``)."""
-    text = "\n".join(line.split("#", 1)[0] for line in Path(path).read_text().splitlines())
+    lines = read_input_text(path, "the camera's sensor.yaml").splitlines()
+    text = "\n".join(line.split("#", 1)[0] for line in lines)
     lists = {}
     for key, body in _LIST.findall(text):
         try:
@@ -76,7 +80,16 @@ def read_sensor(path: Path) -> Camera:
             name = "T_BS data" if key == "data" else key
             msg = f"{path}: no {name} list of {n} numbers ({LAYOUT})"
             raise LogError(msg)
+    for key in need:
+        if not np.all(np.isfinite(lists[key])):
+            name = "T_BS data" if key == "data" else key
+            msg = f"{path}: {name} holds {lists[key].tolist()}: not finite"
+            raise LogError(msg)
     fu, fv, cu, cv = lists["intrinsics"]
+    finite(path, "intrinsics' fu", fu, positive=True)
+    finite(path, "intrinsics' fv", fv, positive=True)
+    for v in lists["resolution"]:
+        finite(path, "resolution", v, positive=True)
     k = np.array([[fu, 0.0, cu], [0.0, fv, cv], [0.0, 0.0, 1.0]])
     width, height = (int(v) for v in lists["resolution"])
     return Camera(lists["data"].reshape(4, 4), k, lists["distortion_coefficients"], (width, height))
@@ -99,6 +112,12 @@ class Rectifier:
 def rectifier(cam0: Camera, cam1: Camera) -> Rectifier:
     """OpenCV's rectification of the pair (zero disparity at infinity, alpha 0)."""
     t_10 = np.linalg.inv(cam1.t_bs) @ cam0.t_bs  # cam0 coordinates → cam1 coordinates
+    if np.linalg.norm(t_10[:3, 3]) < _MIN_BASELINE_M:
+        msg = (
+            f"cam0's and cam1's T_BS put the cameras {np.linalg.norm(t_10[:3, 3]):g} m apart: a "
+            "stereo pair's cameras sit apart (a baseline of at least 1 mm)"
+        )
+        raise LogError(msg)
     r1, r2, p1, p2, *_ = cv2.stereoRectify(
         cam0.k, cam0.distortion, cam1.k, cam1.distortion, cam0.size,
         t_10[:3, :3], t_10[:3, 3].reshape(3, 1), flags=cv2.CALIB_ZERO_DISPARITY, alpha=0,
@@ -124,21 +143,63 @@ def rectifier(cam0: Camera, cam1: Camera) -> Rectifier:
     return Rectifier(rig, maps, cam0.t_bs @ rect)  # type: ignore[arg-type]
 
 
+def _csv_rows(path: Path, what: str) -> Iterator[tuple[int, list[str]]]:
+    """(line number, comma-separated fields) of the lines that are not empty or comments."""
+    for n, line in enumerate(read_input_text(path, what).splitlines(), start=1):
+        if line.strip() and not line.startswith("#"):
+            yield n, [field.strip() for field in line.split(",")]
+
+
+def _stamp(path: Path, n: int, text: str) -> int:
+    """A timestamp field (integer ns)."""
+    try:
+        return int(text)
+    except ValueError:
+        msg = f"{path}: line {n}: timestamp {text[:40]!r} is not an integer (ns)"
+        raise LogError(msg) from None
+
+
 def _frames_csv(path: Path) -> dict[int, str]:
     out = {}
-    for line in path.read_text().splitlines():
-        if not line.strip() or line.startswith("#"):
-            continue
-        stamp, _, name = line.partition(",")
-        out[int(stamp)] = name.strip()
+    for n, fields in _csv_rows(path, "the camera's frame list"):
+        if len(fields) < 2 or not fields[1]:
+            msg = f"{path}: line {n} is not 'timestamp [ns],filename'"
+            raise LogError(msg)
+        out[_stamp(path, n, fields[0])] = fields[1]
     return out
 
 
+# The ground truth's columns: timestamp [ns], position x, y, z [m], quaternion w, x, y, z
+_TRUTH_COLUMNS = 8
+
+
 def _truth(path: Path) -> tuple[np.ndarray, np.ndarray]:
-    """(stamps (N,) int64, body poses (N, 7): x, y, z, qw, qx, qy, qz)."""
-    table = np.loadtxt(path, delimiter=",", comments="#", ndmin=2, dtype=np.float64)
-    stamps = np.loadtxt(path, delimiter=",", comments="#", ndmin=2, dtype=np.int64, usecols=0)
-    return stamps.ravel(), table[:, 1:8]
+    """(stamps (N,) int64, body poses (N, 7): x, y, z, qw, qx, qy, qz), stamps increasing."""
+    stamps, poses = [], []
+    for n, fields in _csv_rows(path, "the ground truth"):
+        if len(fields) < _TRUTH_COLUMNS:
+            msg = (
+                f"{path}: line {n} has {len(fields)} columns; the ground truth has at least "
+                f"{_TRUTH_COLUMNS}: timestamp, p_x, p_y, p_z, q_w, q_x, q_y, q_z"
+            )
+            raise LogError(msg)
+        stamps.append(_stamp(path, n, fields[0]))
+        try:
+            pose = [float(v) for v in fields[1:_TRUTH_COLUMNS]]
+        except ValueError:
+            pose = [math.nan]
+        if not all(math.isfinite(v) for v in pose) or not any(pose[3:7]):
+            msg = f"{path}: line {n}: the position and quaternion are not 7 finite numbers"
+            raise LogError(msg)
+        poses.append(pose)
+    if not stamps:
+        msg = f"{path}: empty; the ground truth has one line a pose"
+        raise LogError(msg)
+    t = np.array(stamps, dtype=np.int64)
+    if np.any(np.diff(t) <= 0):
+        msg = f"{path}: the timestamps do not increase (a repeated or decreasing one)"
+        raise LogError(msg)
+    return t, np.array(poses)
 
 
 def _rotation(q: np.ndarray) -> np.ndarray:
@@ -168,9 +229,17 @@ def _sequence(
 ) -> Iterator[DatasetFrame]:
     if truth is not None:
         t_ns, xy, heading = truth
+    size = (rect.rig.width, rect.rig.height)
     for stamp, left_name, right_name in pairs:
-        left = rect.rectify(0, read_png(mav / "cam0" / "data" / left_name))
-        right = rect.rectify(1, read_png(mav / "cam1" / "data" / right_name))
+        paths = (mav / "cam0" / "data" / left_name, mav / "cam1" / "data" / right_name)
+        raw = read_pair(*paths)
+        if (raw[0].shape[1], raw[0].shape[0]) != size:
+            msg = (
+                f"{paths[0]}: {raw[0].shape[1]}×{raw[0].shape[0]} px, but sensor.yaml's "
+                f"resolution is {size[0]}×{size[1]}"
+            )
+            raise LogError(msg)
+        left, right = rect.rectify(0, raw[0]), rect.rectify(1, raw[1])
         pose = None
         if truth is not None and t_ns[0] <= stamp <= t_ns[-1]:
             at = float(stamp)
@@ -198,7 +267,11 @@ def sources(path: Path) -> list[Source]:
     if cam0.size != cam1.size:
         msg = f"{mav}: cam0 is {cam0.size} px and cam1 {cam1.size} px; flylog needs one size"
         raise LogError(msg)
-    rect = rectifier(cam0, cam1)
+    try:
+        rect = rectifier(cam0, cam1)
+    except LogError as exc:
+        raise LogError(f"{mav / 'cam1' / 'sensor.yaml'}: {exc}") from None
+    rect = replace(rect, rig=checked_rig(rect.rig, mav / "cam1" / "sensor.yaml"))
     left, right = _frames_csv(mav / "cam0" / "data.csv"), _frames_csv(mav / "cam1" / "data.csv")
     pairs = [(t, left[t], right[t]) for t in sorted(left) if t in right]
     if not pairs:

@@ -36,10 +36,12 @@ from pathlib import Path
 
 import numpy as np
 
-from flylog.datasets.images import read_png
+from flylog.datasets.checks import checked_rig, checked_truth, finite
+from flylog.datasets.images import read_pair, read_png
 from flylog.datasets.logwrite import DatasetFrame, Source
 from flylog.errors import LogError
 from flylog.geometry import Pose2D, StereoRig
+from flylog.io.inputs import read_input_text
 
 STEREO_LAYOUT = (
     "KITTI stereo 2015: training/image_2/NNNNNN_10.png, training/image_3/NNNNNN_10.png, "
@@ -88,7 +90,7 @@ class KittiPoseWarning(UserWarning):
 def read_calibration(path: Path) -> dict[str, np.ndarray]:
     """``KEY: v1 v2 …`` lines of a KITTI calibration file (non-numeric lines skipped)."""
     out = {}
-    for line in Path(path).read_text().splitlines():
+    for line in read_input_text(path, "the calibration").splitlines():
         key, _, values = line.partition(":")
         try:
             out[key.strip()] = np.array([float(v) for v in values.split()])
@@ -122,6 +124,11 @@ def calibration_rig(
     default) at ``width``×``height``, and the x of the pair's midpoint in camera 0's frame
     (m; KITTI's poses are camera 0's)."""
     p2, p3 = _projections(path, keys)
+    for name, p in (("left", p2), ("right", p3)):
+        if not np.all(np.isfinite(p)):
+            msg = f"{path}: the {name} camera's projection holds {p.ravel().tolist()}: not finite"
+            raise LogError(msg)
+        finite(path, f"the {name} camera's focal length", float(p[0, 0]), positive=True)
     f = float(p2[0, 0])
     if not (np.isclose(p2[1, 1], f) and np.isclose(p3[0, 0], f) and np.isclose(p3[1, 1], f)):
         msg = f"{path}: the two projections must share one focal length (square pixels)"
@@ -147,6 +154,7 @@ def calibration_rig(
         principal_point=(float(p2[0, 2]), float(p2[1, 2])),
         doffs=float(p3[0, 2]) - float(p2[0, 2]),
     )
+    rig = checked_rig(rig, path)
     # P = K [I | −C]: the optical centre's x is −P[0,3] / f
     mid_x = -(float(p2[0, 3]) + float(p3[0, 3])) / (2.0 * f)
     return rig, mid_x
@@ -161,7 +169,7 @@ def _require(path: Path, layout: str) -> Path:
 
 def read_disparity_png(path: Path) -> np.ndarray:
     """KITTI's uint16 disparity: value / 256 px, 0 → NaN (unknown)."""
-    raw = read_png(path, depth16=True)
+    raw = read_png(path, depth16=True, what="the ground truth")
     return np.where(raw > 0, raw.astype(np.float32) / np.float32(256.0), np.float32(np.nan))
 
 
@@ -176,11 +184,14 @@ def _stereo_frames(
     """The frames ``indices`` of scene ``name``, frame k stamped k × ``period_ns``, frame 10
     with the ground truth."""
     for k in indices:
-        left = read_png(folder / folders.left / _frame_name(name, k))
-        right = read_png(folder / folders.right / _frame_name(name, k))
+        left, right = read_pair(
+            folder / folders.left / _frame_name(name, k),
+            folder / folders.right / _frame_name(name, k),
+        )
         disparity = None
         if truth is not None and k == REFERENCE_FRAME:
-            disparity = read_disparity_png(truth)
+            size = (left.shape[1], left.shape[0])
+            disparity = checked_truth(truth, read_disparity_png(truth), size)
         yield DatasetFrame(k * period_ns, left, right, disparity)
 
 
@@ -234,6 +245,47 @@ def stereo_sources(folder: Path, *, multiview: bool = False) -> list[Source]:
     return out
 
 
+def _numbers(path: Path, what: str, count: int | None) -> list[list[float]]:
+    """The rows of whitespace-separated finite numbers of a text file (``count`` a row, if
+    given); LogError naming the file and the line otherwise."""
+    rows = []
+    for n, line in enumerate(read_input_text(path, what).splitlines(), start=1):
+        if not line.strip():
+            continue
+        try:
+            row = [float(v) for v in line.split()]
+        except ValueError:
+            msg = f"{path}: line {n} is {line.strip()[:60]!r}, not {what} (numbers)"
+            raise LogError(msg) from None
+        if not all(math.isfinite(v) for v in row) or (count is not None and len(row) != count):
+            msg = f"{path}: line {n} holds {line.strip()[:60]!r}, not {count or 1} finite numbers"
+            raise LogError(msg)
+        rows.append(row)
+    if not rows:
+        msg = f"{path}: empty; it holds {what}, one line a frame"
+        raise LogError(msg)
+    return rows
+
+
+def read_times(path: Path) -> np.ndarray:
+    """times.txt: one time (s) a frame, increasing; LogError naming the line otherwise."""
+    times = np.array([row[0] for row in _numbers(path, "frame times", 1)])
+    back = np.flatnonzero(np.diff(times) <= 0)
+    if back.size:
+        k = int(back[0]) + 1
+        msg = (
+            f"{path}: line {k + 1} gives {times[k]:g} s after {times[k - 1]:g} s: frame times "
+            "increase (a repeated or decreasing time)"
+        )
+        raise LogError(msg)
+    return times
+
+
+def read_poses(path: Path) -> np.ndarray:
+    """poses/NN.txt: one 3×4 pose (12 finite numbers) a line."""
+    return np.array(_numbers(path, "poses", 12))
+
+
 def ground_pose(pose: np.ndarray, mid_x: float) -> Pose2D:
     """A camera-0 pose [R | t] (x right, y down, z forward) → the colour pair's midpoint on
     the ground plane: forward z → x, left −x → y, heading of the optical axis."""
@@ -245,10 +297,10 @@ def ground_pose(pose: np.ndarray, mid_x: float) -> Pose2D:
 def _sequence(
     folder: Path, rig: StereoRig, mid_x: float, poses: np.ndarray | None
 ) -> Iterator[DatasetFrame]:
-    times = np.loadtxt(folder / "times.txt", ndmin=1)
+    times = read_times(folder / "times.txt")
     for k, t in enumerate(times):
         name = f"{k:06d}.png"
-        left, right = read_png(folder / "image_2" / name), read_png(folder / "image_3" / name)
+        left, right = read_pair(folder / "image_2" / name, folder / "image_3" / name)
         pose = None if poses is None else ground_pose(poses[k].reshape(3, 4), mid_x)
         yield DatasetFrame(round(float(t) * 1e9), left, right, true_pose=pose)
 
@@ -259,7 +311,7 @@ def sequence_source(folder: Path) -> Source:
         _require(folder / name, ODOMETRY_LAYOUT)
     first = _require(folder / "image_2" / "000000.png", ODOMETRY_LAYOUT)
     height, width = read_png(first).shape[:2]
-    times = np.loadtxt(folder / "times.txt", ndmin=1)
+    times = read_times(folder / "times.txt")
     for k in range(len(times)):
         for side in ("image_2", "image_3"):
             _require(folder / side / f"{k:06d}.png", ODOMETRY_LAYOUT)
@@ -270,7 +322,7 @@ def sequence_source(folder: Path) -> Source:
     pose_file = folder.parent.parent / "poses" / f"{folder.name}.txt"
     poses = None
     if pose_file.is_file():
-        poses = np.loadtxt(pose_file, ndmin=2)
+        poses = read_poses(pose_file)
         if poses.shape != (len(times), 12):
             msg = (
                 f"{pose_file}: {poses.shape[0]} poses of {poses.shape[1]} numbers; times.txt "

@@ -17,6 +17,7 @@ import numpy as np
 from flylog.errors import LogError
 from flylog.geometry import Pose2D, StereoRig
 from flylog.io import contract, encode
+from flylog.io.atomic import Batch
 from flylog.io.writer import LogWriter
 
 
@@ -49,12 +50,14 @@ def write_dataset_log(
     metadata: dict[str, str],
     *,
     on_frame: Callable[[int], None] | None = None,
+    batch: Batch | None = None,
 ) -> int:
-    """Write the frames (streamed, in time order) as a flylog log at ``path`` (atomically);
-    return how many. ``rig`` gives the calibration; its mount is not written (the log has
-    no ``/tf``), as ``metadata`` says (``mount = "none"``)."""
+    """Write the frames (streamed, in time order) as a flylog log at ``path`` (atomically,
+    with ``batch``'s other logs if given); return how many. ``rig`` gives the calibration;
+    its mount is not written (the log has no ``/tf``), as ``metadata`` says
+    (``mount = "none"``)."""
     count = 0
-    with LogWriter(path) as log:
+    with LogWriter(path, batch=batch) as log:
         for frame in frames:
             t = frame.stamp_ns
             if count == 0:

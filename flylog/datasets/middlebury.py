@@ -17,11 +17,13 @@ from pathlib import Path
 
 import numpy as np
 
-from flylog.datasets.images import read_png
+from flylog.datasets.checks import checked_rig, checked_truth, finite
+from flylog.datasets.images import read_pair
 from flylog.datasets.logwrite import DatasetFrame, Source
 from flylog.datasets.pfm import read_pfm
 from flylog.errors import LogError
 from flylog.geometry import StereoRig
+from flylog.io.inputs import read_input_text
 
 FILES = ("im0.png", "im1.png", "calib.txt")
 TRUTH_FILE = "disp0.pfm"
@@ -72,7 +74,7 @@ def _matrix(text: str, path: Path, key: str) -> np.ndarray:
 def read_calibration(path: Path) -> dict[str, str]:
     """``key=value`` lines of calib.txt."""
     out = {}
-    for line in Path(path).read_text().splitlines():
+    for line in read_input_text(path, "the calibration").splitlines():
         if "=" in line:
             key, value = line.split("=", 1)
             out[key.strip()] = value.strip()
@@ -97,6 +99,11 @@ def scene_rig(folder: Path) -> StereoRig:
     except ValueError as exc:
         msg = f"{path}: {exc}: doffs and baseline are numbers, width and height integers"
         raise LogError(msg) from None
+    for key, m in (("cam0", k0), ("cam1", k1)):
+        for (i, j), name in (((0, 0), "f"), ((1, 1), "f"), ((0, 2), "cx"), ((1, 2), "cy")):
+            finite(path, f"{key}'s {name}", float(m[i, j]), positive=name == "f")
+    finite(path, "doffs", doffs)
+    finite(path, "baseline", baseline_mm, positive=True)
     f = float(k0[0, 0])
     if not (np.isclose(k0[1, 1], f) and np.isclose(k1[0, 0], f) and np.isclose(k1[1, 1], f)):
         msg = (
@@ -110,7 +117,7 @@ def scene_rig(folder: Path) -> StereoRig:
             f"({k0[0, 2]}, {k0[1, 2]}) shifted by doffs = {doffs} along x: not rectified"
         )
         raise LogError(msg)
-    return StereoRig(
+    rig = StereoRig(
         width=width,
         height=height,
         focal_px=f,
@@ -121,11 +128,12 @@ def scene_rig(folder: Path) -> StereoRig:
         principal_point=(float(k0[0, 2]), float(k0[1, 2])),
         doffs=doffs,
     )
+    return checked_rig(rig, path)
 
 
 def scene_frames(folder: Path, rig: StereoRig) -> Iterator[DatasetFrame]:
     """The scene's one pair at time 0, with disp0.pfm's disparity (inf → NaN) when present."""
-    left, right = read_png(folder / "im0.png"), read_png(folder / "im1.png")
+    left, right = read_pair(folder / "im0.png", folder / "im1.png")
     for name, image in (("im0.png", left), ("im1.png", right)):
         if image.shape[:2] != (rig.height, rig.width):
             msg = (
@@ -137,13 +145,11 @@ def scene_frames(folder: Path, rig: StereoRig) -> Iterator[DatasetFrame]:
     truth = folder / TRUTH_FILE
     if truth.is_file():
         disparity = read_pfm(truth)
-        if disparity.shape != (rig.height, rig.width):
-            msg = (
-                f"{truth}: {disparity.shape[1]}×{disparity.shape[0]} values, not the images' "
-                f"{rig.width}×{rig.height}"
-            )
+        if disparity.ndim != 2:
+            msg = f"{truth}: a colour PFM (PF); a disparity map has one channel (Pf)"
             raise LogError(msg)
         disparity = np.where(np.isfinite(disparity), disparity, np.nan).astype(np.float32)
+        checked_truth(truth, disparity, (rig.width, rig.height))
     yield DatasetFrame(0, left, right, disparity)
 
 

@@ -7,16 +7,18 @@ then float32 values, rows from the bottom of the image to its top.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
 
 from flylog.errors import LogError
+from flylog.io.inputs import read_input_bytes
 
 
 def read_pfm(path: Path) -> np.ndarray:
     """(H, W) or (H, W, 3) float32, rows top to bottom as images store them."""
-    data = Path(path).read_bytes()
+    data = read_input_bytes(path, "the ground truth")
     # four whitespace-separated fields (magic, width, height, scale), then one whitespace byte
     fields: list[bytes] = []
     at = 0
@@ -41,6 +43,12 @@ def read_pfm(path: Path) -> np.ndarray:
     except ValueError:
         msg = f"{path}: PFM header {size!r} {scale_text!r} is not 'WIDTH HEIGHT' and a scale"
         raise LogError(msg) from None
+    if not (math.isfinite(scale) and scale != 0):
+        msg = (
+            f"{path}: PFM scale is {scale_text.decode(errors='replace')!r}; its sign gives the "
+            "byte order (negative: little endian), so it is a finite number other than 0"
+        )
+        raise LogError(msg)
     channels = 3 if magic == b"PF" else 1
     dtype = np.dtype("<f4" if scale < 0 else ">f4")
     count = width * height * channels

@@ -1,7 +1,9 @@
 """``flylog import FORMAT PATH -o OUT``: a dataset folder → one flylog log per scene or pair.
 
-Every source is checked (layout, calibration) before any log is written; a failure while
-writing removes the logs this import already wrote, so it leaves nothing behind.
+Every source is checked (layout, calibration) before any log is written, and the logs are
+published together (:class:`flylog.io.atomic.Batch`) once the last is complete: a failure or
+a stop signal while writing leaves every file the import found as it found it (an earlier
+import's logs of the same names included) and nothing new behind.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from flylog.datasets import euroc, kitti, middlebury
 from flylog.datasets.logwrite import DatasetFrame, Source, write_dataset_log
 from flylog.errors import LogError
 from flylog.io import contract
+from flylog.io.atomic import Batch
 
 # format name → the function listing a folder's sources
 LAYOUTS: dict[str, Callable[[Path], list[Source]]] = {
@@ -77,20 +80,21 @@ def import_dataset(
         output.mkdir(parents=True)
     written: list[ImportedLog] = []
     try:
-        for source, target in zip(found, targets, strict=True):
-            meta = {
-                "format": layout,
-                "source": str(source.path),
-                "scene": source.name,
-                "mount": "dataset" if source.mount else contract.MOUNT_NONE,
-            }
-            frames = write_dataset_log(target, source.rig, _limited(source.frames(), limit), meta)
-            written.append(ImportedLog(target, source.path, frames))
-            if on_progress is not None:
-                on_progress(len(written), len(found))
+        with Batch() as batch:
+            for source, target in zip(found, targets, strict=True):
+                meta = {
+                    "format": layout,
+                    "source": str(source.path),
+                    "scene": source.name,
+                    "mount": "dataset" if source.mount else contract.MOUNT_NONE,
+                }
+                frames = write_dataset_log(
+                    target, source.rig, _limited(source.frames(), limit), meta, batch=batch
+                )
+                written.append(ImportedLog(target, source.path, frames))
+                if on_progress is not None:
+                    on_progress(len(written), len(found))
     except BaseException:
-        for done in written:
-            done.path.unlink(missing_ok=True)
         if made_dir and not any(output.iterdir()):
             output.rmdir()
         raise

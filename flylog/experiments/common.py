@@ -21,9 +21,10 @@ import numpy as np
 from flylog.config import param, to_mapping
 from flylog.errors import ConfigError
 from flylog.io.atomic import write_text
+from flylog.scene.bundled import scenes_dir
 
 CHECKOUT = Path(__file__).resolve().parents[2]
-SCENES = CHECKOUT / "fixtures" / "scenes"
+SCENES = scenes_dir()
 
 Progress = Callable[[float, float], None]
 
@@ -58,7 +59,7 @@ class ExperimentOptions:
     def scene_path(self, name: str) -> Path:
         path = self.scenes / f"{name}.toml"
         if not path.is_file():
-            msg = f"{path}: no such scene file (the experiments use fixtures/scenes)"
+            msg = f"{path}: no such scene file (flylog's bundled scenes are in {SCENES})"
             raise ConfigError(msg)
         return path
 

@@ -41,8 +41,11 @@ def run_plans(
     on_progress: Progress | None = None,
 ) -> list[ExperimentResult]:
     """Run the cells of ``plans`` on a pool of ``workers`` processes (at most one per cell),
-    the longest first; the plans' results in their order. ``on_progress(cells done, cells)``
-    as cells finish; an experiment is assembled as soon as its last cell is in."""
+    the longest first; the plans' results in their order. ``on_progress(done, total)`` as
+    cells finish, in the cells' expected work (``ExperimentCell.work``: log seconds simulated
+    and replayed), so that a progress bar's rate and ETA weigh a 180 s closed loop as such
+    and not as one of many 8 s cells; an experiment is assembled as soon as its last cell
+    is in."""
     from flylog.sweep.executors import ProcessPool, default_workers
     from flylog.sweep.order import longest_first_order
 
@@ -50,21 +53,22 @@ def run_plans(
     order = [cells[j] for j in longest_first_order([cell.work for _, _, cell in cells])]
     results: list[dict[int, Any]] = [{} for _ in plans]
     finished: dict[int, ExperimentResult] = {}
+    total = float(sum(cell.work for _, _, cell in cells))
+    done_work = 0.0
     if on_progress is not None:
-        on_progress(0.0, float(len(cells)))
+        on_progress(0.0, total)
     workers = max(1, min(workers, len(cells)))
     pool = ProcessPool(workers, numba_threads=max(1, default_workers() // workers))
     try:
-        for done, (j, result) in enumerate(
-            pool.map_unordered(run_cell, [cell for _, _, cell in order]), start=1
-        ):
-            k, i, _ = order[j]
+        for j, result in pool.map_unordered(run_cell, [cell for _, _, cell in order]):
+            k, i, cell = order[j]
+            done_work += cell.work
             results[k][i] = result
             plan = plans[k]
             if len(results[k]) == len(plan.cells):
                 finished[k] = finish_in_order(plan, [results[k][n] for n in range(len(plan.cells))])
             if on_progress is not None:
-                on_progress(float(done), float(len(cells)))
+                on_progress(done_work, total)
     finally:
         pool.close()
     return [finished[k] for k in range(len(plans))]
@@ -79,7 +83,8 @@ def run_experiments(
     on_progress: Progress | None = None,
 ) -> list[ExperimentResult]:
     """Run the experiments ``names`` into ``out_dir/NAME/`` on ``workers`` processes; their
-    results in the order of ``names``. ``on_progress(cells done, cells)``."""
+    results in the order of ``names``. ``on_progress(done, total)`` in expected work (log
+    seconds, :func:`run_plans`)."""
     from flylog.experiments import experiment_plan
 
     plans = [experiment_plan(name, Path(out_dir), options) for name in names]

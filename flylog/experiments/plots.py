@@ -23,7 +23,7 @@ DPI = 80
 COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown")
 
 
-def _pyplot() -> Any:
+def pyplot() -> Any:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -32,11 +32,11 @@ def _pyplot() -> Any:
     return plt
 
 
-def _save(fig: Any, path: Path) -> Path:
+def save_figure(fig: Any, path: Path) -> Path:
     """Write ``fig`` as PNG atomically (flylog.io.atomic)."""
     image = io.BytesIO()
     fig.savefig(image, format="png", dpi=DPI, bbox_inches="tight")
-    _pyplot().close(fig)
+    pyplot().close(fig)
     write_bytes(path, image.getvalue())
     return path
 
@@ -122,20 +122,34 @@ def map_figure(
     *,
     rig: StereoRig | None = None,
     title: str | None = None,
+    width: float | None = None,
 ) -> Path:
-    """Top-down panels side by side (x forward at the start, y left), equal axes."""
-    plt = _pyplot()
+    """Top-down panels side by side (x forward at the start, y left), equal axes.
+    ``width`` (inches): one panel that wide, its height following its extent's aspect, the
+    legend outside the axes (beside them) so it hides nothing."""
+    plt = pyplot()
     n = len(panels)
-    fig, axes = plt.subplots(1, n, figsize=(5.2 * n, 4.4), squeeze=False)
+    if width is None:
+        fig, axes = plt.subplots(1, n, figsize=(5.2 * n, 4.4), squeeze=False)
+    else:
+        xmin, xmax, ymin, ymax = panels[0].extent or scene_extent(scene, panels[0].paths)
+        height = min(max(width * (ymax - ymin) / (xmax - xmin), 2.5), 1.2 * width)
+        fig, axes = plt.subplots(1, n, figsize=(width, height + 0.8), squeeze=False)
     for ax, panel in zip(axes[0], panels, strict=True):
         draw_scene(ax, scene)
         for p in panel.paths:
             ax.plot(p.xy[:, 0], p.xy[:, 1], p.style, color=p.colour, lw=p.width, label=p.label)
         if panel.flies is not None and len(panel.flies):
             ax.scatter(
-                panel.flies[:, 0], panel.flies[:, 1], s=4, c="tab:purple", alpha=0.6,
-                label=panel.flies_label, linewidths=0, zorder=5,
-            )  # fmt: skip
+                panel.flies[:, 0],
+                panel.flies[:, 1],
+                s=4,
+                c="tab:purple",
+                alpha=0.6,
+                label=panel.flies_label,
+                linewidths=0,
+                zorder=5,
+            )
         if panel.view_from is not None and rig is not None:
             _draw_view(ax, panel.view_from, rig.half_fov, 8.0)
         xmin, xmax, ymin, ymax = panel.extent or scene_extent(scene, panel.paths)
@@ -148,40 +162,76 @@ def map_figure(
         ax.grid(True, linewidth=0.3)
         handles, labels = ax.get_legend_handles_labels()
         unique = dict(zip(labels, handles, strict=True))
-        ax.legend(unique.values(), unique.keys(), fontsize=7, loc="best")
+        if width is None:
+            ax.legend(unique.values(), unique.keys(), fontsize=7, loc="best")
+        else:
+            ax.legend(
+                unique.values(),
+                unique.keys(),
+                fontsize=8,
+                loc="upper left",
+                bbox_to_anchor=(1.01, 1.0),
+                borderaxespad=0.0,
+            )
     if title:
         fig.suptitle(title, fontsize=11)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 @dataclass(frozen=True)
 class FramePanel:
-    """A left image with flies drawn at their left projections ``uv`` (M, 2) pixels."""
+    """A left image with flies drawn at their left projections ``uv`` (M, 2) pixels, and
+    optionally a value per fly (``values``, e.g. its fitness) that colours it."""
 
     title: str
     image: np.ndarray
     uv: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))
+    values: np.ndarray | None = None
 
 
-def frames_figure(path: Path, panels: Sequence[FramePanel], *, columns: int = 2) -> Path:
-    """Left frames in a grid with the flies as red dots (paper Fig. 4/5, 9)."""
-    plt = _pyplot()
+def frames_figure(
+    path: Path,
+    panels: Sequence[FramePanel],
+    *,
+    columns: int = 2,
+    size: float = 3.6,
+    value_label: str = "",
+) -> Path:
+    """Left frames in a grid with the flies as red dots (paper Fig. 4/5, 9); ``size``:
+    each frame's width (inches). Panels with ``values`` colour their flies by them, on
+    one scale (the 2nd to 98th percentile of all of them) with a colour bar ``value_label``."""
+    plt = pyplot()
     rows = math.ceil(len(panels) / columns)
     h, w = panels[0].image.shape[:2]
-    size = 3.6
+    valued = [p.values for p in panels if p.values is not None and len(p.values)]
+    lo, hi = np.percentile(np.concatenate(valued), [2, 98]) if valued else (0.0, 1.0)
     fig, axes = plt.subplots(
         rows, columns, figsize=(size * columns, size * h / w * rows + 0.4 * rows), squeeze=False
     )
     for ax in axes.ravel():
         ax.axis("off")
+    dots = None
     for ax, panel in zip(axes.ravel(), panels, strict=False):
         ax.imshow(panel.image, interpolation="nearest")
-        if len(panel.uv):
+        if len(panel.uv) and panel.values is not None:
+            dots = ax.scatter(
+                panel.uv[:, 0],
+                panel.uv[:, 1],
+                s=9,
+                c=panel.values,
+                cmap="plasma",
+                vmin=lo,
+                vmax=hi,
+                linewidths=0,
+            )
+        elif len(panel.uv):
             ax.scatter(panel.uv[:, 0], panel.uv[:, 1], s=6, c="red", linewidths=0)
         ax.set_xlim(-0.5, w - 0.5)
         ax.set_ylim(h - 0.5, -0.5)
         ax.set_title(panel.title, fontsize=9)
-    return _save(fig, path)
+    if dots is not None:
+        fig.colorbar(dots, ax=axes.ravel().tolist(), fraction=0.02, pad=0.01, label=value_label)
+    return save_figure(fig, path)
 
 
 @dataclass(frozen=True)
@@ -198,12 +248,13 @@ def curves_figure(
     *,
     xlabel: str = "time (s)",
     title: str | None = None,
+    ylims: Sequence[tuple[float | None, float | None]] | None = None,
 ) -> Path:
     """Panels of curves (one per ylabel): each seed thin, the mean over seeds bold (over the
-    times all seeds share)."""
-    plt = _pyplot()
+    times all seeds share). ``ylims``: each panel's (bottom, top), None for matplotlib's."""
+    plt = pyplot()
     fig, axes = plt.subplots(1, len(panels), figsize=(4.6 * len(panels), 3.4), squeeze=False)
-    for ax, (ylabel, curves) in zip(axes[0], panels, strict=True):
+    for i, (ax, (ylabel, curves)) in enumerate(zip(axes[0], panels, strict=True)):
         for colour, curve in zip(COLOURS, curves, strict=False):
             for t, y in curve.runs:
                 ax.plot(t, y, color=colour, lw=0.6, alpha=0.35)
@@ -217,17 +268,20 @@ def curves_figure(
         ax.set_ylabel(ylabel)
         ax.grid(True, linewidth=0.3)
         ax.legend(fontsize=8)
+        if ylims is not None:
+            bottom, top = ylims[i]
+            ax.set_ylim(bottom=bottom, top=top)
     if title:
         fig.suptitle(title, fontsize=11)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def bars_figure(
     path: Path, labels: Sequence[str], values: Sequence[Sequence[float]], ylabel: str, title: str
 ) -> Path:
     """One box of per-run values per configuration (e.g. latencies of every obstacle)."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(1.6 * len(labels) + 2.0, 3.4))
     data = [np.asarray(v, dtype=float)[np.isfinite(v)] for v in values]
     ax.boxplot(data, showmeans=True)
@@ -239,4 +293,4 @@ def bars_figure(
     ax.set_title(title, fontsize=10)
     ax.grid(True, axis="y", linewidth=0.3)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)

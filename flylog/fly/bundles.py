@@ -12,8 +12,10 @@ import numpy as np
 
 class Images(NamedTuple):
     """The pair being scored and how: (H, W·C) uint8 rows, the rig's constants
-    (:func:`~flylog.fly.fitness.rig_constants`), the window, guard, measure code and the
-    pair's stamp."""
+    (:func:`~flylog.fly.fitness.rig_constants`), the window, guard, the weight of gy² in the
+    Sobel norm² (:func:`~flylog.fly.fitness_terms.gy_weight`), whether the right window is
+    sampled at the exact right projection, and the pair's stamp. The similarity measure
+    travels beside it (:mod:`flylog.fly.measure`)."""
 
     lrows: np.ndarray
     rrows: np.ndarray
@@ -21,7 +23,8 @@ class Images(NamedTuple):
     k: np.ndarray
     window: int
     guard: float
-    measure: int
+    gy_weight: int
+    subpixel: bool
     stamp: int
 
 
@@ -79,7 +82,7 @@ class Breeding(NamedTuple):
 
 
 class Scouting(NamedTuple):
-    """This generation's scouts (:meth:`flylog.fly.scouts.Scouting.kernel_args`): their share
+    """This generation's scouts (:meth:`flylog.fly.scouts.Scouting.bundle`): their share
     of the uniform immigrants (0: none), the strip, K depths, constants and scratch."""
 
     fraction: float

@@ -36,6 +36,7 @@ class Similarity(enum.Enum):
     # 1 − ZNCC weighted by the left patch's contrast σL, 2·4·σL·(1 − ZNCC): removes a gain and
     # an offset of the right camera
     CONTRAST_ZNCC = "contrast_zncc"
+    SAD = "sad"  # sum of absolute differences, (Σ|d|)²/(n·C): removes nothing
 
 
 @dataclass(frozen=True)
@@ -58,8 +59,9 @@ class EngineConfig:
         help="how the two projections are compared: zssd (zero-mean SSD, the paper's), "
         "zncc (zero-mean normalised cross-correlation, G / (guard + 32·(1 − ZNCC)) per "
         "pixel and channel), gain_zssd (zero-mean SSD with the right patch scaled to the "
-        "left one's contrast σL, 2·σL²·(1 − ZNCC)) or contrast_zncc (8·σL·(1 − ZNCC)); the "
-        "last three are unchanged by a gain and an offset of the right camera. At equal "
+        "left one's contrast σL, 2·σL²·(1 − ZNCC)), contrast_zncc (8·σL·(1 − ZNCC)) or sad "
+        "(sum of absolute differences, (Σ|d|)²/(n·C), no vector kernel); zncc, gain_zssd and "
+        "contrast_zncc are unchanged by a gain and an offset of the right camera. At equal "
         "compute with SGBM, sub-pixel, on the real motorcycle pair with the right image 25 % "
         "brighter and noise σ 5, the better half of the flies within 2 px: contrast_zncc "
         "0.97, zncc 0.95, gain_zssd 0.87, zssd 0.36; on the simulated corridor at 320×240 "

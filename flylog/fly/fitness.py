@@ -1,12 +1,12 @@
-"""The fly's fitness: gradient over zero-mean SSD between its two projections (paper §2.1.1).
+"""The fly's fitness: gradient over the dissimilarity of its two projections (paper §2.1.1).
 
-``fitness = G / (Σ_c ZSSD_c + guard·n·C)`` where, for each channel c, over the n = w×w
-neighbourhood with d = L − R, ``ZSSD_c = Σd² − (Σd)²/n`` (the SSD of the two patches once each
-has lost its own mean), and ``G = sqrt(|Sobel|)``, the square root of the Sobel gradient norm
-of the left image at the left projection (summed over channels under the norm). With
-:attr:`Gradient.HORIZONTAL` the norm is of gx alone (``gy_weight`` 0 in the kernels):
-``G = sqrt((Σ_c gx_c²)^½)``, equal to the paper's G wherever gy = 0 (a vertical edge) and 0 on
-a horizontal edge, along which a horizontal disparity cannot be measured.
+``fitness = G / (D + guard·n·C)`` over the n = w×w neighbourhood and C channels, where D is
+the similarity measure's dissimilarity (:mod:`flylog.fly.measures`: the paper's zero-mean SSD
+``Σ_c (Σd² − (Σd)²/n)``, d = L − R, by default) and ``G = sqrt(|Sobel|)``, the square root
+of the Sobel gradient norm of the left image at the left projection (summed over channels
+under the norm). With :attr:`Gradient.HORIZONTAL` the norm is of gx alone (``gy_weight`` 0 in
+the kernels): ``G = sqrt((Σ_c gx_c²)^½)``, equal to the paper's G wherever gy = 0 (a vertical
+edge) and 0 on a horizontal edge, along which a horizontal disparity cannot be measured.
 
 Projections are rounded to the nearest pixel (``floor(u + 0.5)``); with sub-pixel sampling
 the right window is interpolated at the exact right projection instead
@@ -28,39 +28,24 @@ import math
 import numba
 import numpy as np
 
+from flylog.fly.bundles import Images
 from flylog.fly.config import Gradient, Similarity
 from flylog.fly.fitness_reference import fitness_numpy as fitness_numpy
-from flylog.fly.fitness_terms import (
-    GY_BIT,
-    NCC_BIT,
-    SUBPIXEL_BIT,
-    ncc_lanes,
-    ncc_unlike,
-    subpixel_column,
-    windows_into,
-)
 from flylog.fly.fitness_terms import INVALID_FITNESS as INVALID_FITNESS
-from flylog.fly.fitness_terms import NCC_SCALE as NCC_SCALE
 from flylog.fly.fitness_terms import as_planes as as_planes
 from flylog.fly.fitness_terms import gy_weight as gy_weight
-from flylog.fly.fitness_terms import measure_code as measure_code
-from flylog.fly.fitness_terms import sobel_norm2 as _sobel_norm2
-from flylog.fly.fitness_terms import zssd_lanes as _zssd_lanes
-from flylog.fly.fitness_vector import (
-    HALF,
-    LANES,
-    MAX_CHANNELS,
-    lane_masks,
-    ncc_terms_16,
-    ncc_terms_32,
-    ncc_terms_sub_16,
-    ncc_terms_sub_32,
-    prefetch,
-    window_terms_16,
-    window_terms_32,
-    window_terms_sub_16,
-    window_terms_sub_32,
+from flylog.fly.fitness_terms import sobel_norm2, subpixel_column, windows_into
+from flylog.fly.fitness_vector import HALF, LANES, MAX_CHANNELS, lane_masks, prefetch
+from flylog.fly.measure import (
+    Measure,
+    dissimilarity,
+    has_vector,
+    lane_sums,
+    scratch_rows,
+    sums_count,
+    vector_sums,
 )
+from flylog.fly.measures import measure_of
 from flylog.geometry import StereoRig
 from flylog.geometry.kernels import (
     CX,
@@ -120,38 +105,36 @@ def _prefetch_window(lflat, rflat, bl, br, stride, window, lanes, extra):  # pra
 # error_model="numpy": no zero test per division (a fly behind the cameras divides by a depth
 # ≤ 0 and is discarded), so the projection and the last pass are vectorised loops.
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, guard, measure,
-                   masks, out):  # fmt: skip  # pragma: no cover - compiled
-    """Fitness of flies index[start:stop]; ``measure`` from :func:`measure_code`, ``masks``
-    from :func:`lane_masks` with its gy weight."""
-    gy_weight = measure & GY_BIT
-    ncc = (measure & NCC_BIT) != 0
-    subpixel = (measure & SUBPIXEL_BIT) != 0
-    height = lrow.shape[0]
-    stride = lrow.shape[1]
+def _fitness_range(im, measure, xyz, index, start, stop, masks, out):  # pragma: no cover
+    """Fitness of flies index[start:stop] on the pair ``im`` (:class:`Images`) by ``measure``
+    (a :class:`~flylog.fly.measure.Measure`: numba compiles this once per measure), ``masks``
+    from :func:`lane_masks` with the pair's gy weight."""
+    channels, k, window, subpixel = im.channels, im.k, im.window, im.subpixel
+    height = im.lrows.shape[0]
+    stride = im.lrows.shape[1]
     width = stride // channels
-    size = lrow.size
+    size = im.lrows.size
     h = window // 2
     n = window * window
     ncols = window * channels
-    denominator_guard = guard * n * channels
-    lflat = lrow.reshape(size)
-    rflat = rrow.reshape(size)
+    denominator_guard = im.guard * n * channels
+    lflat = im.lrows.reshape(size)
+    rflat = im.rrows.reshape(size)
     lanes = HALF if ncols <= HALF else LANES
-    vector = ncols <= LANES and channels <= MAX_CHANNELS
+    vector = ncols <= LANES and channels <= MAX_CHANNELS and has_vector(measure)
     reach = (window - 1) * stride + lanes  # bytes a vector window reads from its first
     across = channels if subpixel else 0  # the interpolated right rows read this much more
     # Per fly of the block: first offsets of its left and right windows (−1: invalid fly),
-    # then n·Σ_c ZSSD_c and the Sobel norm².
+    # then the measure's window sums and the Sobel norm².
     first_l = np.empty(_BLOCK, dtype=np.int64)
     first_r = np.empty(_BLOCK, dtype=np.int64)
-    totals = np.empty(_BLOCK, dtype=np.int64)
-    variances = np.empty((2, _BLOCK), dtype=np.int64)  # ZNCC's vl and vr
+    count = sums_count(measure)
+    sums = np.empty((count, _BLOCK), dtype=np.int64)
     grads = np.empty(_BLOCK, dtype=np.int64)
     # the projections of the block's flies: depth, u left, u right, v
     proj = np.empty((4, _BLOCK))
     fitness = np.empty(_BLOCK)
-    scratch = np.empty((5, ncols), dtype=np.int32)  # for the windows of the lane loop
+    scratch = np.empty((scratch_rows(measure), ncols), dtype=np.int32)  # the lane loop's
     frac = np.zeros(_BLOCK, dtype=np.int64)  # sub-pixel: the right window's weight
     bs = max(ncols, LANES)  # sub-pixel: the copied windows' row length
     lbuf = np.zeros(window * bs, dtype=np.uint8)
@@ -209,64 +192,39 @@ def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, gua
             br = first_r[t]
             if bl < 0:
                 continue
-            src_l, src_r, step = lflat, rflat, stride
-            fits = max(bl, br + across) + reach <= size
             q = frac[t]
-            if vector and fits and subpixel:  # the right rows interpolated as they are loaded
-                if ncc and lanes == HALF:
-                    cov, vl, vr, grad2 = ncc_terms_sub_16(lflat, rflat, bl, br, stride, window,
-                                                          masks, q, across)  # fmt: skip
-                elif ncc:
-                    cov, vl, vr, grad2 = ncc_terms_sub_32(lflat, rflat, bl, br, stride, window,
-                                                          masks, q, across)  # fmt: skip
-                elif lanes == HALF:
-                    sq, squares, grad2 = window_terms_sub_16(lflat, rflat, bl, br, stride,
-                                                             window, masks, q, across)  # fmt: skip
-                else:
-                    sq, squares, grad2 = window_terms_sub_32(lflat, rflat, bl, br, stride,
-                                                             window, masks, q, across)  # fmt: skip
-                if ncc:
-                    totals[t], variances[0, t], variances[1, t], grads[t] = cov, vl, vr, grad2
-                else:
-                    totals[t] = n * sq - squares
-                    grads[t] = grad2
-            elif vector and ncc and fits:
-                if lanes == HALF:
-                    cov, vl, vr, grad2 = ncc_terms_16(src_l, src_r, bl, br, step, window, masks)
-                else:
-                    cov, vl, vr, grad2 = ncc_terms_32(src_l, src_r, bl, br, step, window, masks)
-                totals[t], variances[0, t], variances[1, t], grads[t] = cov, vl, vr, grad2
-            elif vector and fits:
-                if lanes == HALF:
-                    sq, squares, grad2 = window_terms_16(src_l, src_r, bl, br, step, window, masks)
-                else:
-                    sq, squares, grad2 = window_terms_32(src_l, src_r, bl, br, step, window, masks)
-                totals[t] = n * sq - squares
-                grads[t] = grad2
-            else:
-                if subpixel:  # the lane loop: both windows copied, the right one interpolated
-                    windows_into(lflat, rflat, bl, br, stride, window, channels, q, lbuf, rbuf,
-                                 bs)  # fmt: skip
-                    src_l, src_r, step, bl, br = lbuf, rbuf, bs, 0, 0
-                if ncc:
-                    totals[t], variances[0, t], variances[1, t] = ncc_lanes(
-                        src_l, src_r, bl, br, step, window, channels, scratch
-                    )
-                else:
-                    totals[t] = _zssd_lanes(src_l, src_r, bl, br, step, window, channels, scratch)
-                centre = bl + h * step + h * channels
-                grads[t] = _sobel_norm2(src_l, centre, step, channels, gy_weight)
-        if ncc:
-            for t in range(m):
-                if first_l[t] >= 0:
-                    unlike = ncc_unlike(totals[t], variances[0, t], variances[1, t], n,
-                                        channels, measure)  # fmt: skip
-                    g = math.sqrt(math.sqrt(float(grads[t])))
-                    fitness[t] = g / (denominator_guard + unlike)
-        else:
-            for t in range(m):  # no branch: vectorised (an invalid fly's terms are stale)
-                zssd = totals[t] / n
-                fitness[t] = math.sqrt(math.sqrt(float(grads[t]))) / (zssd + denominator_guard)
+            if vector and max(bl, br + across) + reach <= size:
+                # the right rows interpolated as they are loaded when sub-pixel
+                terms = vector_sums(
+                    measure,
+                    lflat,
+                    rflat,
+                    bl,
+                    br,
+                    stride,
+                    window,
+                    masks,
+                    lanes == LANES,
+                    subpixel,
+                    q,
+                    across,
+                )
+                for j in range(count):
+                    sums[j, t] = terms[j]
+                grads[t] = terms[count]
+                continue
+            src_l, src_r, step = lflat, rflat, stride
+            if subpixel:  # the lane loop: both windows copied, the right one interpolated
+                windows_into(lflat, rflat, bl, br, stride, window, channels, q, lbuf, rbuf, bs)
+                src_l, src_r, step, bl, br = lbuf, rbuf, bs, 0, 0
+            terms = lane_sums(measure, src_l, src_r, bl, br, step, window, channels, scratch)
+            for j in range(count):
+                sums[j, t] = terms[j]
+            centre = bl + h * step + h * channels
+            grads[t] = sobel_norm2(src_l, centre, step, channels, im.gy_weight)
+        for t in range(m):  # no branch: vectorised (an invalid fly's terms are stale)
+            unlike = dissimilarity(measure, sums[:, t], n, channels)
+            fitness[t] = math.sqrt(math.sqrt(float(grads[t]))) / (unlike + denominator_guard)
         for t in range(m):
             out[index[block + t]] = fitness[t] if first_l[t] >= 0 else INVALID_FITNESS
 
@@ -280,49 +238,63 @@ PARALLEL_MIN_EVALUATIONS = 20_000
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
-def _fitness_parallel(lrow, rrow, channels, xyz, index, k, window, guard, measure,
-                      out):  # fmt: skip  # pragma: no cover - compiled
+def _fitness_parallel(im, measure, xyz, index, out):  # pragma: no cover - compiled
     m = index.shape[0]
-    masks = lane_masks(window, channels, measure & GY_BIT)
+    masks = lane_masks(im.window, im.channels, im.gy_weight)
     for chunk in numba.prange(_CHUNKS):
-        _fitness_range(
-            lrow, rrow, channels, xyz, index, chunk * m // _CHUNKS, (chunk + 1) * m // _CHUNKS,
-            k, window, guard, measure, masks, out,
-        )  # fmt: skip
+        start, stop = chunk * m // _CHUNKS, (chunk + 1) * m // _CHUNKS
+        _fitness_range(im, measure, xyz, index, start, stop, masks, out)
 
 
 @numba.njit(cache=True, nogil=True)
-def _fitness_serial(lrow, rrow, channels, xyz, index, k, window, guard, measure,
-                    out):  # fmt: skip  # pragma: no cover - compiled
-    masks = lane_masks(window, channels, measure & GY_BIT)
-    _fitness_range(
-        lrow, rrow, channels, xyz, index, 0, index.shape[0], k, window, guard, measure, masks,
-        out,
-    )  # fmt: skip
+def fitness_serial(im, measure, xyz, index, out):  # pragma: no cover - compiled
+    """The fitness of the flies ``index`` of ``xyz`` on the pair ``im`` (:class:`Images`) by
+    ``measure``, into ``out``, on one thread: for kernels that score flies as part of a
+    larger compiled call."""
+    masks = lane_masks(im.window, im.channels, im.gy_weight)
+    _fitness_range(im, measure, xyz, index, 0, index.shape[0], masks, out)
 
 
-# For kernels that score flies as part of a larger compiled call (one thread, no dispatch).
-fitness_serial = _fitness_serial
+def images_of(
+    left: np.ndarray,
+    right: np.ndarray,
+    rig: StereoRig,
+    window: int,
+    guard: float,
+    *,
+    gradient: Gradient = Gradient.NORM,
+    subpixel: bool = False,
+    stamp_ns: int = -1,
+) -> Images:
+    """The pair as the kernels take it: (H, W·C) uint8 rows of (H, W) or (H, W, C) images."""
+    left, right = as_planes(left), as_planes(right)
+    height, width, channels = left.shape
+    return Images(
+        lrows=left.reshape(height, width * channels),
+        rrows=right.reshape(height, width * channels),
+        channels=channels,
+        k=rig_constants(rig),
+        window=window,
+        guard=float(guard),
+        gy_weight=gy_weight(gradient),
+        subpixel=bool(subpixel),
+        stamp=stamp_ns,
+    )
 
 
 def fitness_into(
-    left_rows: np.ndarray,
-    right_rows: np.ndarray,
-    channels: int,
+    im: Images,
+    measure: Measure,
     xyz: np.ndarray,
     index: np.ndarray,
-    consts: np.ndarray,
-    window: int,
-    guard: float,
-    measure: int,
     out: np.ndarray,
     parallel_min: int = PARALLEL_MIN_EVALUATIONS,
 ) -> None:
     """:func:`fitness_numba` without the argument conversions, for a caller (the engine) that
-    keeps them: (H, W·C) uint8 rows, C-contiguous float64 ``xyz``, int64 ``index``, ``consts``
-    from :func:`rig_constants`, ``measure`` from :func:`measure_code`."""
-    kernel = _fitness_parallel if len(index) >= parallel_min else _fitness_serial
-    kernel(left_rows, right_rows, channels, xyz, index, consts, window, guard, measure, out)
+    keeps them: C-contiguous float64 ``xyz``, int64 ``index``; in parallel over flies when
+    there are at least ``parallel_min``."""
+    kernel = _fitness_parallel if len(index) >= parallel_min else fitness_serial
+    kernel(im, measure, xyz, index, out)
 
 
 def fitness_numba(
@@ -349,21 +321,7 @@ def fitness_numba(
         out = np.full(len(xyz), INVALID_FITNESS)
     if index is None:
         index = np.arange(len(xyz), dtype=np.int64)
-    consts = rig_constants(rig)
-    left, right = as_planes(left), as_planes(right)
-    height, width, channels = left.shape
+    im = images_of(left, right, rig, window, guard, gradient=gradient, subpixel=subpixel)
     index = np.asarray(index, dtype=np.int64)
-    kernel = _fitness_parallel if len(index) >= parallel_min else _fitness_serial
-    kernel(
-        left.reshape(height, width * channels),
-        right.reshape(height, width * channels),
-        channels,
-        xyz,
-        index,
-        consts,
-        window,
-        float(guard),
-        measure_code(gradient, similarity, subpixel),
-        out,
-    )
+    fitness_into(im, measure_of(similarity), xyz, index, out, parallel_min)
     return out

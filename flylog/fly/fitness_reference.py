@@ -1,5 +1,6 @@
 """The fitness's numpy reference (:mod:`flylog.fly.fitness`): whole patches gathered, the
-compiled kernels' integer arithmetic, then the same float steps. The numpy backend runs it."""
+compiled kernels' integer arithmetic (the measure's sums, :mod:`flylog.fly.measures`), then
+the same float steps. The numpy backend runs it."""
 
 from __future__ import annotations
 
@@ -10,14 +11,11 @@ from flylog.fly.fitness_terms import (
     FRACTION,
     FRACTION_BITS,
     INVALID_FITNESS,
-    NCC_BIT,
     as_planes,
     gy_weight,
-    ncc_sums_numpy,
-    ncc_unlike_numpy,
-    similarity_bits,
     subpixel_columns_numpy,
 )
+from flylog.fly.measures import measure_of
 from flylog.geometry import StereoRig
 
 
@@ -58,20 +56,13 @@ def fitness_numpy(
         nxt = right[r, ur_i[:, None, None] + off[None, None, :] + 1].astype(np.int64)
         w = q[valid][:, None, None, None]
         patch_r = ((FRACTION - w) * patch_r + w * nxt + FRACTION // 2) >> FRACTION_BITS
-    d = patch_l - patch_r  # (M, w, w, C)
-    s1 = d.sum(axis=(1, 2))
-    s2 = (d * d).sum(axis=(1, 2))
-    zssd = (n * s2 - s1 * s1).sum(axis=1) / n
     c = patch_l[:, h - 1 : h + 2, h - 1 : h + 2]  # the 3×3 around the left projection
     gx = (c[:, :, 2] - c[:, :, 0]) * np.array([1, 2, 1])[None, :, None]
     gy = (c[:, 2, :] - c[:, 0, :]) * np.array([1, 2, 1])[None, :, None]
     grad2 = (gx.sum(axis=1) ** 2 + gy_weight(gradient) * gy.sum(axis=1) ** 2).sum(axis=1)
     g = np.sqrt(np.sqrt(grad2.astype(np.float64)))
-    measure = similarity_bits(similarity)
-    if measure & NCC_BIT:
-        cov, vl, vr = ncc_sums_numpy(patch_l, patch_r)
-        unlike = ncc_unlike_numpy(cov, vl, vr, n, channels, measure)
-        out[valid] = g / (guard * n * channels + unlike)
-    else:
-        out[valid] = g / (zssd + guard * n * channels)
+    measure = measure_of(similarity)
+    rows = (len(patch_l), n * channels)  # the patches as rows of n·C, channel last
+    sums = measure.sums.numpy(patch_l.reshape(rows), patch_r.reshape(rows), channels)
+    out[valid] = g / (measure.finish_numpy(sums, n, channels) + guard * n * channels)
     return out

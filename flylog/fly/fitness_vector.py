@@ -1,16 +1,17 @@
-"""The fitness kernel's window sums and Sobel (:mod:`flylog.fly.fitness`), on LLVM vectors written
-out by hand: numba widens int16 and int32 arithmetic to int64, which keeps a plain lane loop 4
-lanes wide with its accumulators in memory. Each window row is read as 16 or 32 bytes, widened
-to int16 lanes, one lane per (column, channel) byte; d = L − R is masked to the window's lanes;
+"""The measures' window sums and the Sobel (:mod:`flylog.fly.measures`,
+:mod:`flylog.fly.fitness`), on LLVM vectors written out by hand: numba widens int16 and int32
+arithmetic to int64, which keeps a plain lane loop 4 lanes wide with its accumulators in
+memory. Each window row is read as 16 or 32 bytes, widened to int16 lanes, one lane per
+(column, channel) byte; d = L − R is masked to the window's lanes;
 Σd is kept per lane in int16 (|Σd| ≤ 32·255) and Σd² in int32 lane pairs (vpmaddwd), in
 registers across rows. The sums by channel and the Sobel's gx, gy by channel are dot products of
 lane vectors with 0/±1/2 masks; their 16 pair-sum vectors are then reduced together by a
 transposing add tree. Sub-pixel sampling interpolates each right row as it is loaded, from
 two unaligned loads one pixel apart (:class:`_Window`), with no copy of the window. A window
 that needs more than 32 lanes (wider than 10 pixels in colour), more than MAX_CHANNELS
-channels, or whose reads would run past the end of the image takes the lane loop
-(:mod:`flylog.fly.fitness_terms`) and the scalar Sobel instead; both paths give the same
-integers.
+channels, or whose reads would run past the end of the image takes the measure's lane loop
+and the scalar Sobel (:mod:`flylog.fly.fitness_terms`) instead; both paths give the same
+integers. A measure's sums take their four intrinsics from :func:`vector_variants`.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from numba.core import cgutils
 from numba.extending import intrinsic
 
 from flylog.fly.fitness_terms import FRACTION_BITS
+from flylog.fly.measure import VectorSums
 
 HALF = 16  # int16 lanes per 256-bit vector
 LANES = 2 * HALF
@@ -281,8 +283,18 @@ def target_has_avx2() -> bool:
 
 
 PAIR_SUMS = pair_sums_x86 if target_has_avx2() else pair_sums_generic
-window_terms_16 = window_terms_intrinsic(PAIR_SUMS, 1)
-window_terms_32 = window_terms_intrinsic(PAIR_SUMS, 2)
+
+
+def vector_variants(factory) -> VectorSums:
+    """The four intrinsics a measure's sums take from ``factory``
+    (:func:`window_terms_intrinsic` or :func:`ncc_terms_intrinsic`): 16 and 32 lanes,
+    whole-pixel and sub-pixel."""
+    return VectorSums(
+        half=factory(PAIR_SUMS, 1),
+        wide=factory(PAIR_SUMS, 2),
+        half_subpixel=factory(PAIR_SUMS, 1, subpixel=True),
+        wide_subpixel=factory(PAIR_SUMS, 2, subpixel=True),
+    )
 
 
 @numba.njit(cache=True, nogil=True)
@@ -308,7 +320,7 @@ def lane_masks(window, channels, gy_weight=1):  # pragma: no cover - compiled
 def ncc_terms_intrinsic(pair_sums, halves: int, subpixel: bool = False):
     """As :func:`window_terms_intrinsic`, for ZNCC: (left, right, bl, br, stride, rows,
     masks[, q, across]) → (n·Σlr − Σ_c Σl_c·Σr_c, n·Σl² − Σ_c (Σl_c)², n·Σr² − Σ_c (Σr_c)²,
-    Sobel norm²) with n = rows² (:func:`flylog.fly.fitness_terms.ncc_lanes`'s three sums). Σl
+    Sobel norm²) with n = rows² (:func:`flylog.fly.measures.ncc_lanes`'s three sums). Σl
     and Σr are kept per lane in int16, Σl², Σr², Σlr in int32 lane pairs: only Σl and Σr are
     needed by channel, the others over every lane."""
 
@@ -316,8 +328,10 @@ def ncc_terms_intrinsic(pair_sums, halves: int, subpixel: bool = False):
         w = _Window(context, builder, signature, args, subpixel, pair_sums)
 
         def zeros(vector_type):
-            return [cgutils.alloca_once_value(builder, ir.Constant(vector_type, None))
-                    for _ in range(halves)]  # fmt: skip
+            return [
+                cgutils.alloca_once_value(builder, ir.Constant(vector_type, None))
+                for _ in range(halves)
+            ]
 
         lane_mask = [w.mask(_MASK_LANES, h) for h in range(halves)]
         sl, sr = zeros(_WORDS), zeros(_WORDS)
@@ -381,11 +395,3 @@ def ncc_terms_intrinsic(pair_sums, halves: int, subpixel: bool = False):
         return context.make_tuple(builder, signature.return_type, [cov, vl, vr, grad2])
 
     return _intrinsic(codegen, 4, subpixel)
-
-
-ncc_terms_16 = ncc_terms_intrinsic(PAIR_SUMS, 1)
-ncc_terms_32 = ncc_terms_intrinsic(PAIR_SUMS, 2)
-window_terms_sub_16 = window_terms_intrinsic(PAIR_SUMS, 1, subpixel=True)
-window_terms_sub_32 = window_terms_intrinsic(PAIR_SUMS, 2, subpixel=True)
-ncc_terms_sub_16 = ncc_terms_intrinsic(PAIR_SUMS, 1, subpixel=True)
-ncc_terms_sub_32 = ncc_terms_intrinsic(PAIR_SUMS, 2, subpixel=True)

@@ -81,9 +81,13 @@ def sonar_fused(
     if use_numba:
         sonars = fired_sonars(reading)
         return sonar_fused_numba(
-            vision, np.ascontiguousarray(xyz), sonars, math.cos(reading.half_cone), tolerance,
+            vision,
+            np.ascontiguousarray(xyz),
+            sonars,
+            math.cos(reading.half_cone),
+            tolerance,
             bonus,
-        )  # fmt: skip
+        )
     confirmations = sonar_confirmations(xyz, reading, tolerance, use_numba=False)
     return np.where(vision > 0, vision * (1.0 + bonus) ** confirmations, vision)
 
@@ -264,14 +268,22 @@ def sonar_immigrants(
     if use_numba:
         out = np.empty((n, 3))
         count = sonar_immigrants_into(
-            rng, fired_arcs(reading), float(reading.half_cone), float(tolerance),
-            arc_constants(rig, margin), tries, out,
-        )  # fmt: skip
+            rng,
+            fired_arcs(reading),
+            float(reading.half_cone),
+            float(tolerance),
+            arc_constants(rig, margin),
+            tries,
+            out,
+        )
         return out[:count]
     batches: list[np.ndarray] = []
     for _ in range(tries):
-        batches.append(arc_immigrants_numpy(arc_draws(rng, reading, n, rig, tolerance), reading,
-                                          n, rig, margin))  # fmt: skip
+        batches.append(
+            arc_immigrants_numpy(
+                arc_draws(rng, reading, n, rig, tolerance), reading, n, rig, margin
+            )
+        )
         if sum(map(len, batches)) >= n:
             break
     return np.concatenate(batches)[:n]
@@ -300,21 +312,30 @@ def _move_kernel(xyz, x, y, c, s):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True)
-def score_into(lrows, rrows, channels, xyz, index, k, window, guard, stamp, vision, stale,
-               stamp_ns, sonars, cos_half_cone, tolerance, bonus, fuse_index, fitness,
-               measure=1):  # fmt: skip  # pragma: no cover - compiled
-    """A generation's scoring in one call: the vision fitness of the flies ``index``
-    (:func:`~flylog.fly.fitness.fitness_into`'s serial kernel, their ``stale`` cleared and
-    ``stamp_ns`` set to ``stamp``), then the fused fitness of the flies ``fuse_index``: the
-    vision fitness, times the sonar bonus (:func:`sonar_fuse_into`) if ``sonars`` has a row.
-    ``measure``: :func:`~flylog.fly.fitness.measure_code` (1: ZSSD, the paper's Sobel norm)."""
+def score_into(im, measure, fu, flies, index, fuse_index):  # pragma: no cover - compiled
+    """A generation's scoring in one call: the vision fitness of the flies ``index`` of
+    ``flies`` (:class:`~flylog.fly.bundles.Flies`) on the pair ``im``
+    (:class:`~flylog.fly.bundles.Images`) by ``measure``
+    (:func:`~flylog.fly.fitness.fitness_serial`, their ``stale`` cleared and ``stamp_ns`` set
+    to the pair's stamp), then the fused fitness of the flies ``fuse_index``: the vision
+    fitness, times the sonar bonus of ``fu`` (:class:`~flylog.fly.bundles.Fusion`,
+    :func:`sonar_fuse_into`) if it has a fired sonar."""
     if index.shape[0] > 0:
-        fitness_serial(lrows, rrows, channels, xyz, index, k, window, guard, measure, vision)
+        fitness_serial(im, measure, flies.xyz, index, flies.vision)
         for t in range(index.shape[0]):
-            stale[index[t]] = False
-            stamp_ns[index[t]] = stamp
-    if sonars.shape[0] > 0:
-        sonar_fuse_into(vision, xyz, sonars, cos_half_cone, tolerance, bonus, fuse_index, fitness)
+            flies.stale[index[t]] = False
+            flies.stamp_ns[index[t]] = im.stamp
+    if fu.sonars.shape[0] > 0:
+        sonar_fuse_into(
+            flies.vision,
+            flies.xyz,
+            fu.sonars,
+            fu.cos_half_cone,
+            fu.tolerance,
+            fu.bonus,
+            fuse_index,
+            flies.fitness,
+        )
     else:
         for t in range(fuse_index.shape[0]):
-            fitness[fuse_index[t]] = vision[fuse_index[t]]
+            flies.fitness[fuse_index[t]] = flies.vision[fuse_index[t]]

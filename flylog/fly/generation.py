@@ -34,12 +34,14 @@ from flylog.geometry.kernels import row_of
 
 
 @numba.njit(cache=True, nogil=True)
-def generation_kernel(rng, im, a, b, fuse_all, fu, se, br, sc, scratch):  # pragma: no cover
+def generation_kernel(
+    rng, im, measure, a, b, fuse_all, fu, se, br, sc, scratch
+):  # pragma: no cover - compiled
     """A generation from the flies ``a`` (scored, then selected from) into ``b``, with the
     bundles of :mod:`flylog.fly.bundles` (``im`` :class:`Images`, ``fu`` :class:`Fusion`,
     ``se`` :class:`Selection`, ``br`` :class:`Breeding`, ``sc`` :class:`Scouting`,
-    ``scratch`` :class:`Scratch`). ``sc.fraction`` 0: nobody scouts. Returns (evaluations,
-    survivors, children, sonar immigrants)."""
+    ``scratch`` :class:`Scratch`) and the similarity ``measure``. ``sc.fraction`` 0: nobody
+    scouts. Returns (evaluations, survivors, children, sonar immigrants)."""
     n = a.xyz.shape[0]
     height = im.lrows.shape[0]
     m = 0
@@ -48,40 +50,28 @@ def generation_kernel(rng, im, a, b, fuse_all, fu, se, br, sc, scratch):  # prag
         m += a.stale[i]
     index = rows_order_into(a.xyz, scratch.stale_index[:m], im.k, height, scratch.row_scratch)
     fuse = scratch.everyone if fuse_all else index
-    score_into(im.lrows, im.rrows, im.channels, a.xyz, index, im.k, im.window, im.guard,
-               im.stamp, a.vision, a.stale, a.stamp_ns, fu.sonars, fu.cos_half_cone,
-               fu.tolerance, fu.bonus, fuse, a.fitness, im.measure)  # fmt: skip
+    score_into(im, measure, fu, a, index, fuse)
     evaluations = m
-    kept = select_into_kernel(a.fitness, se.coefficient, se.sharing, se.survivors, se.work,
-                              im.k, se.radius, se.grid, se.ints, se.uv, se.counts, a.xyz,
-                              a.vision, a.stale, a.stamp_ns, a.age, b.xyz, b.fitness, b.vision,
-                              b.stale, b.stamp_ns, b.age)  # fmt: skip
+    kept = select_into_kernel(se, im.k, a, b)
     n_children = n - kept - br.n_immigrants
     at = kept + n_children
     found = immigrants_and_children_into(
-        rng, b.xyz[:kept], br.rate2, br.rate3, br.sigma_px, br.sigma_d, br.newcomer_k,
-        br.arcs, br.half_cone, fu.tolerance, br.arc_k, br.tries, br.n_sonar,
-        b.xyz[kept:at], b.xyz[at:],
-    )  # fmt: skip
+        rng, b.xyz[:kept], br, fu.tolerance, b.xyz[kept:at], b.xyz[at:]
+    )
     n_scouts = round(sc.fraction * (br.n_immigrants - found)) if sc.fraction > 0 else 0
     if n_scouts > 0:
-        r = n_scouts * sc.n_depths
-        scouts_into(rng, sc.k, sc.c0, sc.c1, sc.in_right, sc.n_depths, im.lrows, im.rrows,
-                    im.channels, im.k, im.window, im.guard, im.measure, sc.candidates[:r],
-                    sc.candidate_index[:r], sc.candidate_fitness[:r],
-                    b.xyz[n - n_scouts :])  # fmt: skip
-        evaluations += r
+        scouts_into(rng, sc, n_scouts, im, measure, b.xyz[n - n_scouts :])
+        evaluations += n_scouts * sc.n_depths
     order = rows_order_into(b.xyz, scratch.newcomers, im.k, height, scratch.row_scratch)
-    score_into(im.lrows, im.rrows, im.channels, b.xyz, order, im.k, im.window, im.guard,
-               im.stamp, b.vision, b.stale, b.stamp_ns, fu.sonars, fu.cos_half_cone,
-               fu.tolerance, fu.bonus, order, b.fitness, im.measure)  # fmt: skip
+    score_into(im, measure, fu, b, order, order)
     evaluations += scratch.newcomers.shape[0]
     return evaluations, kept, n_children, found
 
 
 @numba.njit(cache=True, nogil=True)
-def generations_kernel(count, made, rng, im, a, b, fuse_all, fu, se, br, sc,
-                       scratch):  # fmt: skip  # pragma: no cover - compiled
+def generations_kernel(
+    count, made, rng, im, measure, a, b, fuse_all, fu, se, br, sc, scratch
+):  # pragma: no cover - compiled
     """``count`` generations of :func:`generation_kernel` on the same inputs, one call: the
     first from the flies ``a`` into ``b``, the next back, and so on (after an odd ``count``
     the newest population is in ``b``). ``fuse_all`` applies to the first only (the next
@@ -95,7 +85,7 @@ def generations_kernel(count, made, rng, im, a, b, fuse_all, fu, se, br, sc,
     src, dst = a, b  # ping-pong: generation g reads one population and writes the other
     for g in range(count):
         e, kept, children, found = generation_kernel(
-            rng, im, src, dst, fuse_all and g == 0, fu, se, br, sc, scratch
+            rng, im, measure, src, dst, fuse_all and g == 0, fu, se, br, sc, scratch
         )
         src, dst = dst, src
         made[g, 0] = e

@@ -10,10 +10,10 @@ flies at a wrong depth hardly bias it while the robot turns in place.
 
 The comparison is the fitness formula across time instead of across cameras: for each fly,
 G of the keyframe's left patch (the horizontal Sobel: a yaw moves the image horizontally)
-over the engine's dissimilarity (``engine.similarity``, :mod:`flylog.fly.fitness_terms`;
-the keyframe's patch in the place of the left one) between its keyframe patch and its patch
-in the later pair, left and right cameras summed; the scan's peak (a parabola through its
-neighbours) is the measured ε.
+over the engine's dissimilarity (``engine.similarity``, :mod:`flylog.fly.measures`, its
+sums taken in float; the keyframe's patch in the place of the left one) between its
+keyframe patch and its patch in the later pair, left and right cameras summed; the scan's
+peak (a parabola through its neighbours) is the measured ε.
 
 A measurement is made once the robot has driven ``keyframe_distance`` or turned
 ``keyframe_turn_deg`` since the keyframe (or ``keyframe_frames`` pairs came); that pair
@@ -35,6 +35,7 @@ Two implementations of the scan with identical results: :func:`yaw_scores_numba`
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numba
@@ -42,16 +43,16 @@ import numpy as np
 
 from flylog.fly.config import Similarity
 from flylog.fly.fitness import as_planes, rig_constants
-from flylog.fly.fitness_terms import (
-    NCC_BIT,
-    ncc_unlike,
-    ncc_unlike_numpy,
-    similarity_bits,
-)
 from flylog.fly.fusion import moved_by_odometry
 from flylog.fly.heading_config import HeadingConfig
-from flylog.geometry import Pose2D, StereoRig
+from flylog.fly.measure import Measure, dissimilarity, patch_sums
+from flylog.fly.measures import measure_of
+from flylog.fly.population import Population
+from flylog.geometry import Pose2D, StereoRig, relative
 from flylog.geometry.kernels import CX, CX_RIGHT, CY, FOCAL, optical
+from flylog.sensors import StereoPair
+
+KEYFRAME_FLIES = 3  # flies kept with a keyframe, per one compared (some leave the view)
 
 
 @dataclass(frozen=True, slots=True)
@@ -147,7 +148,7 @@ def yaw_scores_numpy(
     n = window * window
     channels = as_planes(before[0]).shape[2]
     g = guard * n * channels
-    measure = similarity_bits(similarity)
+    measure = measure_of(similarity)
     u_left, u_right, v, _ = rig.project(xyz)
     left_k = bilinear_patches(before[0], u_left, v, h)
     right_k = bilinear_patches(before[1], u_right, v, h)
@@ -159,46 +160,21 @@ def yaw_scores_numpy(
         total = np.zeros(len(xyz))
         for patch_k, image, u in ((left_k, after[0], ul), (right_k, after[1], ur)):
             sample = bilinear_patches(image, u, vv, h)
-            unlike = patch_dissimilarity_numpy(patch_k.reshape(len(xyz), -1),
-                                               sample.reshape(len(xyz), -1), channels,
-                                               measure)  # fmt: skip
+            a, b = patch_k.reshape(len(xyz), -1), sample.reshape(len(xyz), -1)
+            unlike = patch_dissimilarity_numpy(a, b, channels, measure)
             total += 1.0 / (unlike + g)
         scores[j] = float((weight * total).sum())
     return scores
 
 
-def patch_dissimilarity_numpy(a: np.ndarray, b: np.ndarray, channels: int, measure: int):
-    """Reference: :func:`_dissimilarity` of (M, n·C) patch pairs (layout of :func:`_sample`),
-    its sums in its order: the zero-mean SSD, or (``measure`` with NCC_BIT, the bits of
-    :func:`~flylog.fly.fitness_terms.similarity_bits`) the fitness's dissimilarity from
-    ZNCC's float sums."""
-    size = a.shape[1]
-    n = size // channels
-    zero = np.zeros(a.shape[0])
-    if not measure & NCC_BIT:
-        s2, total = zero.copy(), zero.copy()
-        for ch in range(channels):
-            s1 = zero.copy()
-            for t in range(ch, size, channels):
-                d = a[:, t] - b[:, t]
-                s1 += d
-                s2 += d * d
-            total -= s1 * s1
-        return (n * s2 + total) / n
-    cov, vl, vr = zero.copy(), zero.copy(), zero.copy()
-    for ch in range(channels):
-        sa, sb, saa, sbb, sab = (zero.copy() for _ in range(5))
-        for t in range(ch, size, channels):
-            x, y = a[:, t], b[:, t]
-            sa += x
-            sb += y
-            saa += x * x
-            sbb += y * y
-            sab += x * y
-        cov += n * sab - sa * sb
-        vl += n * saa - sa * sa
-        vr += n * sbb - sb * sb
-    return ncc_unlike_numpy(cov, vl, vr, n, channels, measure)
+def patch_dissimilarity_numpy(
+    a: np.ndarray, b: np.ndarray, channels: int, measure: Measure
+) -> np.ndarray:
+    """Reference: the ``measure``'s dissimilarity of (M, n·C) float patch pairs (layout of
+    :func:`_sample`), from its sums in float (:attr:`~flylog.fly.measure.WindowSums.numpy`,
+    the additions in the compiled kernel's order)."""
+    n = a.shape[1] // channels
+    return measure.finish_numpy(measure.sums.numpy(a, b, channels), n, channels)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -223,53 +199,16 @@ def _sample(rows, channels, u, v, h, out):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True)
-def _zssd(a, b, channels, n):  # pragma: no cover - compiled
-    """Σ_c ZSSD_c per pixel between two sampled patches (layout of :func:`_sample`)."""
-    s2 = 0.0
-    total = 0.0
-    for ch in range(channels):
-        s1 = 0.0
-        for t in range(ch, a.shape[0], channels):
-            d = a[t] - b[t]
-            s1 += d
-            s2 += d * d
-        total -= s1 * s1
-    return (n * s2 + total) / n
+def patch_dissimilarity(a, b, channels, n, measure):  # pragma: no cover - compiled
+    """The ``measure``'s dissimilarity between two sampled patches (layout of
+    :func:`_sample`), from its sums in float (:func:`patch_dissimilarity_numpy`)."""
+    return dissimilarity(measure, patch_sums(measure, a, b, channels), n, channels)
 
 
 @numba.njit(cache=True, nogil=True)
-def _dissimilarity(a, b, channels, n, measure):  # pragma: no cover - compiled
-    """The fitness's dissimilarity between two sampled patches (layout of :func:`_sample`)
-    for the ``measure`` bits of :func:`~flylog.fly.fitness_terms.similarity_bits`: the
-    zero-mean SSD, or from ZNCC's sums in float (:func:`patch_dissimilarity_numpy`)."""
-    if not measure & NCC_BIT:
-        return _zssd(a, b, channels, n)
-    cov = 0.0
-    vl = 0.0
-    vr = 0.0
-    for ch in range(channels):
-        sa = 0.0
-        sb = 0.0
-        saa = 0.0
-        sbb = 0.0
-        sab = 0.0
-        for t in range(ch, a.shape[0], channels):
-            x = a[t]
-            y = b[t]
-            sa += x
-            sb += y
-            saa += x * x
-            sbb += y * y
-            sab += x * y
-        cov += n * sab - sa * sb
-        vl += n * saa - sa * sa
-        vr += n * sbb - sb * sb
-    return ncc_unlike(cov, vl, vr, n, channels, measure)
-
-
-@numba.njit(cache=True, nogil=True)
-def _yaw_scores_kernel(lk, rk, l1, r1, channels, xyz, moved, offsets, k, window, guard,
-                       measure, out):  # fmt: skip  # pragma: no cover - compiled
+def _yaw_scores_kernel(
+    lk, rk, l1, r1, channels, xyz, moved, offsets, k, window, guard, measure, out
+):  # pragma: no cover - compiled
     """:func:`yaw_scores_numpy`'s sums; ``moved``: the points after the odometry increment
     (before the extra yaw), all comparable; images as (H, W·C) uint8 rows."""
     focal, cx, cy, cx_right = k[FOCAL], k[CX], k[CY], k[CX_RIGHT]
@@ -303,9 +242,9 @@ def _yaw_scores_kernel(lk, rk, l1, r1, channels, xyz, moved, offsets, k, window,
             a, b, depth, ar = optical(k, x, y, moved[i, 2])
             v = cy + focal * b / depth
             _sample(l1, channels, cx + focal * a / depth, v, h, sample)
-            zl = _dissimilarity(left_k[i], sample, channels, n, measure)
+            zl = patch_dissimilarity(left_k[i], sample, channels, n, measure)
             _sample(r1, channels, cx_right + focal * ar / depth, v, h, sample)
-            zr = _dissimilarity(right_k[i], sample, channels, n, measure)
+            zr = patch_dissimilarity(right_k[i], sample, channels, n, measure)
             total += weight[i] * (1.0 / (zl + g) + 1.0 / (zr + g))
         out[j] = total
 
@@ -332,9 +271,21 @@ def yaw_scores_numba(
     moved = np.ascontiguousarray(moved_by_odometry(xyz, increment), dtype=np.float64)
     out = np.empty(len(offsets))
     lk, rk, l1, r1 = rows
-    _yaw_scores_kernel(lk, rk, l1, r1, channels, xyz, moved, np.asarray(offsets, np.float64),
-                       rig_constants(rig), window, float(guard), similarity_bits(similarity),
-                       out)  # fmt: skip
+    _yaw_scores_kernel(
+        lk,
+        rk,
+        l1,
+        r1,
+        channels,
+        xyz,
+        moved,
+        np.asarray(offsets, np.float64),
+        rig_constants(rig),
+        window,
+        float(guard),
+        measure_of(similarity),
+        out,
+    )
     return out
 
 
@@ -377,8 +328,9 @@ def measure_yaw(
     if len(points) < config.min_flies or len(offsets) < 3:
         return YawMeasurement(None, len(points))
     scores_of = yaw_scores_numba if use_numba else yaw_scores_numpy
-    scores = scores_of(before, after, points, increment, rig, offsets, config.window,
-                       config.guard, similarity)  # fmt: skip
+    scores = scores_of(
+        before, after, points, increment, rig, offsets, config.window, config.guard, similarity
+    )
     return YawMeasurement(scan_peak(offsets, scores), len(points))
 
 
@@ -392,3 +344,80 @@ def fused_yaw(
     if total <= 0.0 or measured * measured > gate * gate * total:
         return 0.0
     return measured * odometry_variance / total
+
+
+@dataclass
+class _Keyframe:
+    """The pair the next heading measurement compares with: its flies (base_link there), the
+    robot's pose there, and what came since (pairs, the odometry's heading variance)."""
+
+    pair: StereoPair
+    xyz: np.ndarray
+    pose: Pose2D
+    pairs: int = 0
+    variance: float = 0.0
+
+
+class VisualHeading:
+    """The engine's visual heading over a sequence of stereo pairs: keeps a keyframe (a pair
+    and the flies fitted to it), and when a measurement is due (``config``) measures the
+    turn since with the flies (:func:`measure_yaw`, the engine's ``similarity``) and fuses
+    it with the odometry's (:func:`fused_yaw`). The pose bookkeeping around it (odometry at
+    a pair's stamp, the correction applied to later odometry) is the caller's
+    (:class:`flylog.replay.pose_tracker.PoseTracker`)."""
+
+    def __init__(
+        self, config: HeadingConfig, rig: StereoRig, similarity: Similarity = Similarity.ZSSD
+    ) -> None:
+        self._config = config
+        self._rig = rig
+        self._similarity = similarity
+        self._keyframe: _Keyframe | None = None  # what the next measurement compares with
+
+    def turn(
+        self,
+        previous: StereoPair,
+        pair: StereoPair,
+        engine_pose: Pose2D,
+        pose: Pose2D,
+        population: Callable[[], Population],
+    ) -> tuple[float | None, int]:
+        """The heading correction (rad) to add to ``pose`` (the robot's pose at ``pair``, from
+        the odometry), and the fitness evaluations its measurement made; None when no
+        measurement is made (not due, no turn since the keyframe, no inner peak).
+        ``previous`` is the pair before, ``engine_pose`` the pose at it: when no keyframe is
+        kept, ``previous`` with the fittest flies of ``population()`` (base_link there)
+        becomes one."""
+        cfg = self._config
+        if not cfg.enabled:
+            return None, 0
+        if self._keyframe is None:
+            pop = population()
+            fittest = np.argsort(-pop.fitness, kind="stable")
+            fittest = fittest[pop.fitness[fittest] > 0][: KEYFRAME_FLIES * cfg.flies]
+            self._keyframe = _Keyframe(previous, pop.xyz[fittest], engine_pose)
+        key = self._keyframe
+        key.pairs += 1
+        key.variance += cfg.odometry_variance(
+            relative(engine_pose, pose), (pair.stamp_ns - previous.stamp_ns) / 1e9
+        )
+        since = relative(key.pose, pose)
+        if key.variance == 0.0 or not cfg.due(since, key.pairs):
+            return None, 0
+        self._keyframe = None
+        if abs(since.theta) < math.radians(cfg.min_turn_deg):
+            return None, 0
+        measured = measure_yaw(
+            (key.pair.left, key.pair.right),
+            (pair.left, pair.right),
+            key.xyz,
+            since,
+            self._rig,
+            cfg,
+            similarity=self._similarity,
+        )
+        evaluations = cfg.evaluations(measured.flies)
+        if measured.yaw is None:
+            return None, evaluations
+        sd = cfg.measurement_sd_px / self._rig.focal_px
+        return fused_yaw(measured.yaw, key.variance, sd, cfg.gate), evaluations

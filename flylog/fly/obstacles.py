@@ -143,9 +143,13 @@ class ObstacleFlies:
     ) -> np.ndarray:
         """(N,) bool: the flies every test but distinctness keeps (the ones it measures)."""
         return obstacle_mask(
-            xyz, fitness, quantile=self.quantile, ground_margin=self.ground_margin,
-            age=age, min_age=self.min_age,
-        )  # fmt: skip
+            xyz,
+            fitness,
+            quantile=self.quantile,
+            ground_margin=self.ground_margin,
+            age=age,
+            min_age=self.min_age,
+        )
 
     def keep(self, candidates: np.ndarray, distinct: np.ndarray | None) -> np.ndarray:
         """(N,) bool: the ``candidates`` whose ``distinct`` passes, when the rule reads it."""
@@ -183,11 +187,19 @@ class ObstacleFlies:
 
         measured = np.flatnonzero(candidates)
         out[measured] = distinctness(
-            pair.left, pair.right, np.asarray(xyz)[measured], rig, engine.window, engine.guard,
-            self.distinct_shifts, gradient=engine.gradient, similarity=engine.similarity,
+            pair.left,
+            pair.right,
+            np.asarray(xyz)[measured],
+            rig,
+            engine.window,
+            engine.guard,
+            self.distinct_shifts,
+            gradient=engine.gradient,
+            similarity=engine.similarity,
             subpixel=engine.subpixel,
-            use_numba=engine.backend is Backend.NUMBA, infinity=self.distinct_at_infinity,
-        )  # fmt: skip
+            use_numba=engine.backend is Backend.NUMBA,
+            infinity=self.distinct_at_infinity,
+        )
         return out
 
     def distinct_evaluations(self, candidates: np.ndarray) -> int:
@@ -218,7 +230,12 @@ def obstacle_points(
 
     pop = source.population if isinstance(source, FlyEngine) else source
     keep = obstacle_mask(
-        pop.xyz, pop.fitness, min_fitness=min_fitness, quantile=quantile,
-        ground_margin=ground_margin, age=pop.age, min_age=min_age,
-    )  # fmt: skip
+        pop.xyz,
+        pop.fitness,
+        min_fitness=min_fitness,
+        quantile=quantile,
+        ground_margin=ground_margin,
+        age=pop.age,
+        min_age=min_age,
+    )
     return pop.xyz[keep].copy()

@@ -114,8 +114,18 @@ def newcomers_numpy(
 def newcomer_constants(rig: StereoRig, d_min: float, d_max: float, margin: int) -> np.ndarray:
     """What :func:`newcomers_into` needs of the rig and the search box, as one float64 array."""
     fb = rig.fb
-    extra = [fb / d_max, fb / d_min, margin, rig.width - 1 - margin, margin,
-             rig.height - 1 - margin, 1.0 / d_max, 1.0 / d_min, fb, rig.doffs]  # fmt: skip
+    extra = [
+        fb / d_max,
+        fb / d_min,
+        margin,
+        rig.width - 1 - margin,
+        margin,
+        rig.height - 1 - margin,
+        1.0 / d_max,
+        1.0 / d_min,
+        fb,
+        rig.doffs,
+    ]
     return np.concatenate([rig.constants(), np.array(extra, dtype=np.float64)])
 
 
@@ -193,34 +203,28 @@ def newcomers_into(
 
 @numba.njit(cache=True, nogil=True)
 def immigrants_and_children_into(
-    rng,
-    parents,
-    rate2,
-    rate3,
-    sigma_px,
-    sigma_disparity_px,
-    k,
-    arcs,
-    half_cone,
-    tolerance,
-    arc_k,
-    tries,
-    n_sonar,
-    children,
-    immigrants,
+    rng, parents, br, tolerance, children, immigrants
 ):  # pragma: no cover - compiled
     """A generation's newcomers in one call (the Generator is passed once: numba takes ~10 µs
-    to type one): up to ``n_sonar`` sonar immigrants first in ``immigrants``
-    (:func:`~flylog.fly.fusion.sonar_immigrants_into` with ``arcs``, ``half_cone``,
-    ``tolerance``, ``arc_k``, ``tries``; none if ``arcs`` is empty), then
-    :func:`newcomers_into` with the rest of ``immigrants`` uniform. Returns how many came from
-    the sonar."""
+    to type one), with the rates, scales, constants and sonar arcs of ``br``
+    (:class:`~flylog.fly.bundles.Breeding`): up to ``br.n_sonar`` sonar immigrants first in
+    ``immigrants`` (:func:`~flylog.fly.fusion.sonar_immigrants_into` with ``tolerance``; none
+    if no arc), then :func:`newcomers_into` with the rest of ``immigrants`` uniform. Returns
+    how many came from the sonar."""
     found = 0
-    if n_sonar > 0 and arcs.shape[0] > 0:
+    if br.n_sonar > 0 and br.arcs.shape[0] > 0:
         found = sonar_immigrants_into(
-            rng, arcs, half_cone, tolerance, arc_k, tries, immigrants[:n_sonar]
+            rng, br.arcs, br.half_cone, tolerance, br.arc_k, br.tries, immigrants[: br.n_sonar]
         )
     newcomers_into(
-        rng, parents, rate2, rate3, sigma_px, sigma_disparity_px, k, children, immigrants[found:]
+        rng,
+        parents,
+        br.rate2,
+        br.rate3,
+        br.sigma_px,
+        br.sigma_d,
+        br.newcomer_k,
+        children,
+        immigrants[found:],
     )
     return found

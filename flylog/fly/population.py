@@ -10,7 +10,8 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from flylog.fly.fitness import INVALID_FITNESS
+from flylog.fly.bundles import Flies, Selection
+from flylog.fly.fitness_terms import INVALID_FITNESS
 from flylog.fly.neighbours import NeighbourCounter, fly_neighbour_counts_into
 from flylog.fly.selection import shared_fitness_into, survivors_cut
 
@@ -48,11 +49,6 @@ class Population:
     def __len__(self) -> int:
         return len(self.xyz)
 
-    def arrays(self) -> tuple[np.ndarray, ...]:
-        """(xyz, fitness, vision, stale, stamp_ns, age): the fields of
-        :class:`~flylog.fly.bundles.Flies`, in its order."""
-        return self.xyz, self.fitness, self.vision, self.stale, self.stamp_ns, self.age
-
     def copy(self, *, readonly: bool = False) -> Population:
         """A deep copy (optionally with read-only arrays, for handing out snapshots)."""
         out = Population(
@@ -84,6 +80,10 @@ class Population:
         out.age[k:] = 0
         return out
 
+    def flies(self) -> Flies:
+        """The arrays as the compiled kernels take them (:class:`~flylog.fly.bundles.Flies`)."""
+        return Flies(self.xyz, self.fitness, self.vision, self.stale, self.stamp_ns, self.age)
+
     def select_into(
         self,
         out: Population,
@@ -102,10 +102,8 @@ class Population:
         if counts is None:
             counts = np.empty(0, dtype=np.int64)
         return _select_kernel(
-            self.fitness, counts, float(coefficient), share, keep, work,
-            self.xyz, self.vision, self.stale, self.stamp_ns, self.age,
-            out.xyz, out.fitness, out.vision, out.stale, out.stamp_ns, out.age,
-        )  # fmt: skip
+            counts, float(coefficient), share, keep, work, self.flies(), out.flies()
+        )
 
     def select_sharing_into(
         self,
@@ -124,11 +122,18 @@ class Population:
         left in ``counter.counts``)."""
         self._check_select(out, work)
         grid, ints, uv = counter.scratch(len(self))
-        return _select_sharing_kernel(
-            self.fitness, float(coefficient), keep, work, consts, float(radius), grid, ints,
-            uv, counter.counts, self.xyz, self.vision, self.stale, self.stamp_ns, self.age,
-            out.xyz, out.fitness, out.vision, out.stale, out.stamp_ns, out.age,
-        )  # fmt: skip
+        selection = Selection(
+            survivors=keep,
+            sharing=True,
+            coefficient=float(coefficient),
+            work=work,
+            radius=float(radius),
+            grid=grid,
+            ints=ints,
+            uv=uv,
+            counts=counter.counts,
+        )
+        return select_into_kernel(selection, consts, self.flies(), out.flies())
 
     def _check_select(self, out: Population, work: np.ndarray) -> None:
         if len(out) != len(self) or out is self or len(work) < 2 * len(self):
@@ -137,53 +142,43 @@ class Population:
 
 
 @numba.njit(cache=True, nogil=True)
-def _select_kernel(fitness, counts, coefficient, share, keep, work, xyz, vision, stale, stamp,
-                   age, oxyz, ofit, ovis, ostale, ostamp, oage):  # fmt: skip  # pragma: no cover
-    """:meth:`Population.select_into`: shared fitness, the selection cut, then one gather."""
-    n = fitness.shape[0]
+def _select_kernel(counts, coefficient, share, keep, work, a, b):  # pragma: no cover
+    """:meth:`Population.select_into`: shared fitness, the selection cut, then one gather
+    from the flies ``a`` into ``b`` (:class:`~flylog.fly.bundles.Flies`)."""
+    n = a.fitness.shape[0]
     score = work[:n]
     if share:
-        shared_fitness_into(fitness, counts, coefficient, work[n:], score)
+        shared_fitness_into(a.fitness, counts, coefficient, work[n:], score)
     else:
-        score[:] = fitness
-    return _cut_and_gather(score, keep, work, fitness, xyz, vision, stale, stamp, age, oxyz,
-                           ofit, ovis, ostale, ostamp, oage)  # fmt: skip
+        score[:] = a.fitness
+    return _cut_and_gather(score, keep, work, a, b)
 
 
 @numba.njit(cache=True, nogil=True)
-def _select_sharing_kernel(fitness, coefficient, keep, work, k, radius, grid, ints, uv, counts,
-                           xyz, vision, stale, stamp, age, oxyz, ofit, ovis, ostale, ostamp,
-                           oage):  # fmt: skip  # pragma: no cover
-    """:meth:`Population.select_sharing_into`: neighbour counts, then :func:`_select_kernel`."""
-    fly_neighbour_counts_into(xyz, k, fitness, radius, grid, ints, uv, counts)
-    n = fitness.shape[0]
-    score = work[:n]
-    shared_fitness_into(fitness, counts, coefficient, work[n:], score)
-    return _cut_and_gather(score, keep, work, fitness, xyz, vision, stale, stamp, age, oxyz,
-                           ofit, ovis, ostale, ostamp, oage)  # fmt: skip
+def select_into_kernel(se, k, a, b):  # pragma: no cover - compiled
+    """For compiled callers: the selection ``se`` (:class:`~flylog.fly.bundles.Selection`)
+    from the flies ``a`` into ``b``: with sharing, each valid fly's neighbours within
+    ``se.radius`` px in the left image first (``k``: the rig's constants; the counts are left
+    in ``se.counts``), as :meth:`Population.select_sharing_into`; without, on the fitness
+    itself (``se.counts`` not read). Returns how many flies were kept."""
+    n = a.fitness.shape[0]
+    score = se.work[:n]
+    if se.sharing:
+        fly_neighbour_counts_into(
+            a.xyz, k, a.fitness, se.radius, se.grid, se.ints, se.uv, se.counts
+        )
+        shared_fitness_into(a.fitness, se.counts, se.coefficient, se.work[n:], score)
+    else:
+        score[:] = a.fitness
+    return _cut_and_gather(score, se.survivors, se.work, a, b)
 
 
 @numba.njit(cache=True, nogil=True)
-def select_into_kernel(fitness, coefficient, sharing, keep, work, k, radius, grid, ints, uv,
-                       counts, xyz, vision, stale, stamp, age, oxyz, ofit, ovis, ostale, ostamp,
-                       oage):  # fmt: skip  # pragma: no cover - compiled
-    """For compiled callers: :meth:`Population.select_sharing_into`'s kernel when
-    ``sharing``, else :meth:`Population.select_into`'s without counts (``counts`` is then not
-    read)."""
-    if sharing:
-        return _select_sharing_kernel(fitness, coefficient, keep, work, k, radius, grid, ints, uv,
-                                      counts, xyz, vision, stale, stamp, age, oxyz, ofit, ovis,
-                                      ostale, ostamp, oage)  # fmt: skip
-    return _select_kernel(fitness, counts, 0.0, False, keep, work, xyz, vision, stale, stamp, age,
-                          oxyz, ofit, ovis, ostale, ostamp, oage)  # fmt: skip
-
-
-@numba.njit(cache=True, nogil=True)
-def _cut_and_gather(score, keep, work, fitness, xyz, vision, stale, stamp, age, oxyz, ofit,
-                    ovis, ostale, ostamp, oage):  # fmt: skip  # pragma: no cover
-    """The selection cut on ``score`` (``work[n:]`` is scratch), then one gather: the taken
-    flies one generation older, the rest of ``out`` fresh (xyz left to the caller)."""
-    n = fitness.shape[0]
+def _cut_and_gather(score, keep, work, a, b):  # pragma: no cover - compiled
+    """The selection cut on ``score`` (``work[n:]`` is scratch), then one gather from the flies
+    ``a`` into ``b``: the taken flies one generation older, the rest of ``b`` fresh (xyz left
+    to the caller)."""
+    n = a.fitness.shape[0]
     everyone = keep >= n
     cut, ties = np.inf, 0
     if 0 < keep < n:
@@ -197,19 +192,19 @@ def _cut_and_gather(score, keep, work, fitness, xyz, vision, stale, stamp, age, 
         tie = s == cut
         take = everyone | (s > cut) | (tie & (ties > 0))
         ties -= tie & take
-        oxyz[t, 0], oxyz[t, 1], oxyz[t, 2] = xyz[i, 0], xyz[i, 1], xyz[i, 2]
-        ofit[t] = fitness[i]
-        ovis[t] = vision[i]
-        ostale[t] = stale[i]
-        ostamp[t] = stamp[i]
-        oage[t] = age[i] + 1
+        b.xyz[t, 0], b.xyz[t, 1], b.xyz[t, 2] = a.xyz[i, 0], a.xyz[i, 1], a.xyz[i, 2]
+        b.fitness[t] = a.fitness[i]
+        b.vision[t] = a.vision[i]
+        b.stale[t] = a.stale[i]
+        b.stamp_ns[t] = a.stamp_ns[i]
+        b.age[t] = a.age[i] + 1
         t += take
     for r in range(t, n):
-        ofit[r] = INVALID_FITNESS
-        ovis[r] = INVALID_FITNESS
-        ostale[r] = True
-        ostamp[r] = -1
-        oage[r] = 0
+        b.fitness[r] = INVALID_FITNESS
+        b.vision[r] = INVALID_FITNESS
+        b.stale[r] = True
+        b.stamp_ns[r] = -1
+        b.age[r] = 0
     return t
 
 

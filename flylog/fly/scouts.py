@@ -28,8 +28,9 @@ import math
 import numba
 import numpy as np
 
-from flylog.fly.config import Backend, EngineConfig
-from flylog.fly.fitness import fitness_numpy, fitness_serial, measure_code, rig_constants
+from flylog.fly.bundles import Scouting as ScoutBundle
+from flylog.fly.config import EngineConfig
+from flylog.fly.fitness import fitness_numpy, fitness_serial
 from flylog.fly.operators import newcomer_constants
 from flylog.geometry import StereoRig
 from flylog.geometry.kernels import CX, CY, FOCAL, LEFT, RIG_SIZE, ROWS, backproject
@@ -136,16 +137,17 @@ def best_candidates_into(candidates, fitness, n_depths, out):  # pragma: no cove
 
 
 @numba.njit(cache=True, nogil=True)
-def scouts_into(rng, k, c0, c1, in_right, n_depths, lrow, rrow, channels, rig_k, window, guard,
-                measure, candidates, index, fitness,
-                out):  # fmt: skip  # pragma: no cover - compiled
-    """One generation's scouts in one call (numba types the Generator once): candidates
-    (:func:`scout_candidates_into`), their fitness on (H, W·C) uint8 rows (serial: a few
-    hundred flies), the best of each scout into ``out``. ``candidates``, ``index``
-    (0…n·K−1) and ``fitness`` are n·K long."""
-    scout_candidates_into(rng, k, c0, c1, in_right, n_depths, candidates)
-    fitness_serial(lrow, rrow, channels, candidates, index, rig_k, window, guard, measure, fitness)
-    best_candidates_into(candidates, fitness, n_depths, out)
+def scouts_into(rng, sc, n_scouts, im, measure, out):  # pragma: no cover - compiled
+    """``n_scouts`` scouts in one call (numba types the Generator once), with the strip,
+    constants and scratch of ``sc`` (:class:`~flylog.fly.bundles.Scouting`): candidates
+    (:func:`scout_candidates_into`), their fitness on the pair ``im`` by ``measure``
+    (serial: a few hundred flies), the best of each scout into ``out`` (n_scouts, 3)."""
+    r = n_scouts * sc.n_depths
+    candidates = sc.candidates[:r]
+    fitness = sc.candidate_fitness[:r]
+    scout_candidates_into(rng, sc.k, sc.c0, sc.c1, sc.in_right, sc.n_depths, candidates)
+    fitness_serial(im, measure, candidates, sc.candidate_index[:r], fitness)
+    best_candidates_into(candidates, fitness, sc.n_depths, out)
 
 
 class Scouting:
@@ -157,23 +159,17 @@ class Scouting:
         self._fraction = config.scout_fraction
         self._depths = config.scout_candidates
         self._min_shift = config.scout_min_shift
-        self._numba = config.backend is Backend.NUMBA
         self.rig = rig
         self._margin = margin
         self._window, self._guard = config.window, float(config.guard)
         self._gradient = config.gradient
         self._similarity = config.similarity
         self._subpixel = config.subpixel
-        self._measure = measure_code(config.gradient, config.similarity, config.subpixel)
         self._k = newcomer_constants(rig, config.d_min, config.d_max, margin)
-        self._rig_k = rig_constants(rig)
         self._yaw = 0.0  # since the newest images
         self._frames = np.zeros(config.scout_strip_frames)  # yaw of the last image intervals
         self._strip = (0.0, -1.0, False)  # entering_strip(); empty while not turning enough
-        self._candidates = np.empty((0, 3))
-        self._fitness = np.empty(0)
-        self._index = np.empty(0, dtype=np.int64)
-        self._scratch = (self._candidates, self._index, self._fitness)  # kernel_args
+        self._scratch = (np.empty((0, 3)), np.empty(0, dtype=np.int64), np.empty(0))  # bundle()
 
     @property
     def strip(self) -> tuple[float, float, bool]:
@@ -204,19 +200,28 @@ class Scouting:
             return 0
         return round(self._fraction * (n_immigrants - n_sonar))
 
-    def kernel_args(
-        self, n_immigrants: int
-    ) -> tuple[float, float, float, bool, int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def bundle(self, n_immigrants: int) -> ScoutBundle:
         """What :func:`~flylog.fly.generation.generation_kernel` needs to place this
-        generation's scouts as :meth:`place` does: (the scouts' share of the uniform
-        immigrants, 0 while not turning; c0, c1, in_right of :attr:`strip`; K; the constants;
-        candidates, their index and fitness: scratch for up to ``n_immigrants`` scouts)."""
+        generation's scouts as :meth:`place` does (:class:`~flylog.fly.bundles.Scouting`):
+        the scouts' share of the uniform immigrants, 0 while not turning; c0, c1, in_right of
+        :attr:`strip`; K; the constants; candidates, their index and fitness: scratch for up
+        to ``n_immigrants`` scouts."""
         c0, c1, in_right = self._strip
         if len(self._scratch[0]) < n_immigrants * self._depths:
             size = n_immigrants * self._depths
             self._scratch = (np.empty((size, 3)), np.arange(size, dtype=np.int64), np.empty(size))
-        fraction = self._fraction if c1 >= c0 else 0.0
-        return (fraction, c0, c1, in_right, self._depths, self._k, *self._scratch)
+        candidates, index, fitness = self._scratch
+        return ScoutBundle(
+            fraction=float(self._fraction if c1 >= c0 else 0.0),
+            c0=float(c0),
+            c1=float(c1),
+            in_right=bool(in_right),
+            n_depths=int(self._depths),
+            k=self._k,
+            candidates=candidates,
+            candidate_index=index,
+            candidate_fitness=fitness,
+        )
 
     def place(
         self,
@@ -227,31 +232,25 @@ class Scouting:
         left: np.ndarray,
         right: np.ndarray,
     ) -> int:
-        """Move the last :meth:`count` flies of ``xyz`` (uniform immigrants, after the sonar
-        ones) to scouts' places; returns the fitness evaluations made, K per scout.
-        ``left``, ``right``: (H, W, C) uint8 planes of the newest images."""
+        """The numpy backend's scouts: move the last :meth:`count` flies of ``xyz`` (uniform
+        immigrants, after the sonar ones) to scouts' places; returns the fitness evaluations
+        made, K per scout. ``left``, ``right``: (H, W, C) uint8 planes of the newest images.
+        The compiled backend places them in its generation (:func:`scouts_into`)."""
         n = self.count(n_immigrants, n_sonar)
         if n == 0:
             return 0
         k = self._depths
-        if self._numba:
-            if len(self._candidates) != n * k:
-                self._candidates = np.empty((n * k, 3))
-                self._fitness = np.empty(n * k)
-                self._index = np.arange(n * k, dtype=np.int64)
-            c0, c1, in_right = self._strip
-            height, width, channels = left.shape
-            scouts_into(
-                rng, self._k, c0, c1, in_right, k, left.reshape(height, width * channels),
-                right.reshape(height, width * channels), channels, self._rig_k, self._window,
-                self._guard, self._measure, self._candidates, self._index,
-                self._fitness, xyz[len(xyz) - n :],
-            )  # fmt: skip
-        else:
-            candidates = scout_candidates_numpy(rng, self._k, self._strip, n, k)
-            fitness = fitness_numpy(
-                left, right, candidates, self.rig, self._window, self._guard,
-                gradient=self._gradient, similarity=self._similarity, subpixel=self._subpixel,
-            )  # fmt: skip
-            xyz[len(xyz) - n :] = best_candidates_numpy(candidates, fitness, k)
+        candidates = scout_candidates_numpy(rng, self._k, self._strip, n, k)
+        fitness = fitness_numpy(
+            left,
+            right,
+            candidates,
+            self.rig,
+            self._window,
+            self._guard,
+            gradient=self._gradient,
+            similarity=self._similarity,
+            subpixel=self._subpixel,
+        )
+        xyz[len(xyz) - n :] = best_candidates_numpy(candidates, fitness, k)
         return n * k

@@ -8,7 +8,10 @@ Ground truth lives under ``/truth/``; the replay engine never reads it.
 from __future__ import annotations
 
 import enum
+import itertools
 import json
+import zlib
+from collections.abc import Mapping
 from types import MappingProxyType
 from typing import Any
 
@@ -32,6 +35,9 @@ FLIES = "/flies"
 FLIES_OVERLAY = "/flies/overlay"
 PLANNER_POTENTIAL = "/planner/potential"
 PLANNER_PATH = "/planner/path"
+# The planner's obstacle map: uint8 "occupancy", 100 a detected cell, 99 its inflation by the
+# robot's footprint (what the harmonic field also treats as obstacle), 0 free.
+PLANNER_MAP = "/planner/map"
 PLANNER_COMMAND = "/planner/command"
 
 TRUTH_PREFIX = "/truth/"
@@ -58,6 +64,28 @@ TRAJECTORIES_VERSION = "1"
 # the cameras' midpoint at base_link's origin, level, and the obstacle rule has no ground test.
 DATASET_METADATA = "flylog.dataset"
 MOUNT_NONE = "none"
+
+# MCAP gives metadata records no checksum; flylog's writer adds one to each record it
+# writes: the key below, whose value is the CRC-32 (zlib's) of the record's name and its
+# other keys and values in key order, each as a little-endian u32 byte length and its UTF-8
+# bytes, written as 8 lowercase hex digits. The reader checks it and skips (with a warning)
+# a record whose checksum does not match, or that lacks one in a log whose header's library
+# field ends with METADATA_CRC_MARK (every record of such a log carries it); a record of
+# another log without the key is read as it is. Readers never see the key.
+METADATA_CRC_KEY = "flylog.crc32"
+METADATA_CRC_MARK = "+metadata-crc32"
+
+
+def metadata_crc(name: str, values: Mapping[str, str]) -> str:
+    """The checksum METADATA_CRC_KEY holds for the metadata record ``name`` of ``values``
+    (the key itself, if present, is left out)."""
+    pairs = sorted((k, v) for k, v in values.items() if k != METADATA_CRC_KEY)
+    crc = 0
+    for text in (name, *itertools.chain.from_iterable(pairs)):
+        data = text.encode("utf-8", "surrogatepass")
+        crc = zlib.crc32(data, zlib.crc32(len(data).to_bytes(4, "little"), crc))
+    return f"{crc:08x}"
+
 
 # ---- frames ------------------------------------------------------------------------------
 
@@ -106,6 +134,7 @@ TOPIC_SCHEMAS: MappingProxyType[str, str] = MappingProxyType(
         FLIES_OVERLAY: IMAGE_ANNOTATIONS,
         PLANNER_POTENTIAL: GRID,
         PLANNER_PATH: POSES_IN_FRAME,
+        PLANNER_MAP: GRID,
         PLANNER_COMMAND: COMMAND,
     }
 )

@@ -321,6 +321,40 @@ def grid(
     )
 
 
+def occupancy_grid(
+    detected: np.ndarray,
+    inflated: np.ndarray,
+    origin: Pose2D,
+    cell_size: float,
+    stamp_ns: int,
+    frame_id: str,
+) -> fm.Grid:
+    """A uint8 grid with one field "occupancy" (:data:`flylog.io.contract.PLANNER_MAP`): 100
+    on the ``detected`` cells, 99 on the other ``inflated`` ones, 0 elsewhere; the layout of
+    :func:`grid`."""
+    detected, inflated = np.asarray(detected, bool), np.asarray(inflated, bool)
+    if detected.ndim != 2 or detected.shape != inflated.shape:
+        msg = f"occupancy needs two (rows, cols) masks, got {detected.shape}, {inflated.shape}"
+        raise ValueError(msg)
+    values = np.where(detected, 100, np.where(inflated, 99, 0)).astype(np.uint8)
+    cols = values.shape[1]
+    return fm.Grid(
+        timestamp=timestamp(stamp_ns),
+        frame_id=frame_id,
+        pose=_planar_pose(origin),
+        column_count=cols,
+        cell_size=fm.Vector2(x=float(cell_size), y=float(cell_size)),
+        row_stride=cols,
+        cell_stride=1,
+        fields=[
+            fm.PackedElementField(
+                name="occupancy", offset=0, type=fm.PackedElementFieldNumericType.Uint8
+            )
+        ],
+        data=values.tobytes(),
+    )
+
+
 def poses_in_frame(poses: np.ndarray, stamp_ns: int, frame_id: str) -> EncodedPosesInFrame:
     """Planar poses (N, 3): x, y, theta.
 

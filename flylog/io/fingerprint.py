@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import IO
 
 from flylog.errors import LogError
+from flylog.io.inputs import open_input
 from flylog.io.summary import read_checked_summary
 
 _RECORD = struct.Struct("<BQ")
@@ -40,7 +41,7 @@ def log_fingerprint(path: str | os.PathLike[str]) -> str:
     if path.is_dir():
         return _directory_fingerprint(path)
     try:
-        with path.open("rb") as fh:
+        with open_input(path, "the log") as fh:
             return _summary_fingerprint(fh) or _file_fingerprint(fh)
     except OSError as exc:
         msg = f"{path}: cannot be read to fingerprint it ({exc.strerror})"

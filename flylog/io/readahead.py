@@ -7,6 +7,7 @@ GIL, so on two cores they run beside the engine's compiled kernels, which releas
 
 from __future__ import annotations
 
+import contextvars
 import os
 import queue
 import sys
@@ -89,7 +90,12 @@ def read_ahead(
             if close is not None:
                 close()
 
-    thread = threading.Thread(target=produce, name="flylog-read-ahead", daemon=True)
+    # in a copy of this context: the files it opens register with this command's inputs
+    # (flylog.io.inputs)
+    context = contextvars.copy_context()
+    thread = threading.Thread(
+        target=context.run, args=(produce,), name="flylog-read-ahead", daemon=True
+    )
     thread.start()
     try:
         while True:

@@ -11,12 +11,14 @@ all is a LogError naming the file and the part damaged.
 from __future__ import annotations
 
 import os
+import struct
 import warnings
 from collections.abc import Generator, Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 from typing import BinaryIO
 
+from mcap.opcode import Opcode
 from mcap.records import Metadata
 from mcap.summary import Summary
 
@@ -25,6 +27,7 @@ from flylog.io import contract
 from flylog.io.chunks import indexed_messages
 from flylog.io.decoding import Decoding, schema_name
 from flylog.io.indexed import indexed_attachments, indexed_metadata
+from flylog.io.inputs import open_input
 from flylog.io.pairing import pair_stereo
 from flylog.io.readahead import read_ahead as read_ahead_of
 from flylog.io.records import LogAttachment, LogMessage, TopicInfo
@@ -44,8 +47,9 @@ def open_log(path: str | os.PathLike[str]) -> LogReader:
     """Open an MCAP log for reading; LogError if it is missing or not MCAP."""
     path = Path(path)
     try:
-        with path.open("rb") as fh:
+        with open_input(path, "the log") as fh:
             magic = fh.read(len(MAGIC))
+            library = _header_library(fh.read(_HEADER_BYTES))
             checked = read_checked_summary(fh) if magic == MAGIC else None
     except FileNotFoundError:
         msg = f"{path}: no such file"
@@ -59,7 +63,44 @@ def open_log(path: str | os.PathLike[str]) -> LogReader:
     if checked is None:
         msg = f"{path} is not an MCAP file (it does not start with the MCAP magic bytes)"
         raise LogError(msg)
-    return LogReader(path, checked)
+    return LogReader(path, checked, library=library)
+
+
+_HEADER_BYTES = 512  # enough for a Header record of any writer's profile and library names
+
+
+def _header_library(head: bytes) -> str:
+    """The library field of the Header record at the start of ``head`` ("" if none)."""
+    try:
+        opcode, _ = struct.unpack_from("<BQ", head)
+        if opcode != Opcode.HEADER:
+            return ""
+        (profile,) = struct.unpack_from("<I", head, 9)
+        (length,) = struct.unpack_from("<I", head, 13 + profile)
+        return head[17 + profile : 17 + profile + length].decode("utf-8")
+    except (struct.error, UnicodeDecodeError):
+        return ""
+
+
+def checked_metadata(
+    found: Iterable[Metadata], *, required: bool
+) -> tuple[list[Metadata], list[str]]:
+    """The records of ``found`` whose checksum (``contract.METADATA_CRC_KEY``) matches,
+    without it, and a description of each one that fails. ``required``: a record without the
+    key fails too (its log's writer adds it to every record)."""
+    kept: list[Metadata] = []
+    failed: list[str] = []
+    for m in found:
+        values = dict(m.metadata)
+        crc = values.pop(contract.METADATA_CRC_KEY, None)
+        if crc is None and required:
+            failed.append(f"'{m.name}' (it lacks its checksum)")
+            continue
+        if crc is not None and crc != contract.metadata_crc(m.name, values):
+            failed.append(f"'{m.name}' (its checksum does not match)")
+            continue
+        kept.append(Metadata(name=m.name, metadata=values))
+    return kept, failed
 
 
 @contextmanager
@@ -81,8 +122,9 @@ class LogReader:
     A finished log whose summary passes its checks (:mod:`flylog.io.summary`) is read
     chunk by chunk through it; any other is read front to back from its data section."""
 
-    def __init__(self, path: Path, checked: CheckedSummary) -> None:
+    def __init__(self, path: Path, checked: CheckedSummary, *, library: str = "") -> None:
         self.path = path
+        self._library = library  # the Header record's: says whether metadata have checksums
         self._checked = checked
         self._summary = checked.summary
         self._scan: ScanState | None = None
@@ -119,7 +161,7 @@ class LogReader:
             counts: dict[str, int] = {}
             schemas: dict[str, str] = {}
             lo, hi = None, 0
-            with self.path.open("rb") as fh, _reading(self.path, "the data section"):
+            with open_input(self.path, "the log") as fh, _reading(self.path, "the data section"):
                 for raw in scan_messages(fh, state):
                     topic = raw.channel.topic
                     counts[topic] = counts.get(topic, 0) + 1
@@ -133,41 +175,38 @@ class LogReader:
             self._scan_count = sum(counts.values())
             report = self._scan_report(state, self._scan_count, None)
             # a cut is reported when messages are read, with what they recovered
-            report = [(text, c) for text, c in report if c is not TruncatedLogWarning]
-            for text, category in self._unsaid(report):
-                warnings.warn(text, category, stacklevel=4)
+            report = [w for w in report if type(w) is not TruncatedLogWarning]
+            for w in self._unsaid(report):
+                warnings.warn(w, stacklevel=4)
         return self._scan
 
-    def _unsaid(self, report: list[tuple[str, type[Warning]]]) -> list[tuple[str, type[Warning]]]:
+    def _unsaid(self, report: list[DamagedLogWarning]) -> list[DamagedLogWarning]:
         """The warnings of ``report`` this reader has not given yet (a log whose summary is
         damaged is read whole for its topics, then for its messages: one warning)."""
-        out = [(text, category) for text, category in report if text not in self._said]
-        self._said.update(text for text, _ in out)
+        out = [w for w in report if str(w) not in self._said]
+        self._said.update(str(w) for w in out)
         return out
 
     def _scan_report(
         self, state: ScanState, count: int, wanted: frozenset[str] | None
-    ) -> list[tuple[str, type[Warning]]]:
+    ) -> list[DamagedLogWarning]:
         """The warnings a front-to-back read of ``count`` messages owes its reader."""
         which = "" if wanted is None else f" on {', '.join(sorted(wanted))}"
-        out: list[tuple[str, type[Warning]]] = []
+        out: list[DamagedLogWarning] = []
         if self._checked.damage is not None:
-            out.append(
-                (
-                    f"{self.path}: {self._checked.damage}; read front to back from its data "
-                    "section instead",
-                    DamagedLogWarning,
-                )
+            text = (
+                f"{self.path}: {self._checked.damage}; read front to back from its data "
+                "section instead"
             )
+            out.append(DamagedLogWarning(text))
         if state.skipped:
             lost = f"{state.lost}{' or more' if state.lost_unknown else ''}"
-            out.append(
-                (
-                    f"{self.path}: skipped damaged records ({'; '.join(state.skipped)}): "
-                    f"{lost} messages lost, {count} read{which}",
-                    DamagedLogWarning,
-                )
+            text = (
+                f"{self.path}: skipped damaged records ({'; '.join(state.skipped)}): "
+                f"{lost} messages lost, {count} read{which}"
             )
+            # the topics of a chunk that cannot be read are unknown: counted under ""
+            out.append(DamagedLogWarning(text, {"": state.lost}, exact=not state.lost_unknown))
         if state.damage is not None:
             if self._checked.ends_with_magic:
                 text = (
@@ -179,13 +218,16 @@ class LogReader:
                     f"{self.path}: the log is truncated or unfinished ({state.damage}); "
                     f"recovered {count} intact messages{which}"
                 )
-            out.append((text, TruncatedLogWarning))
+            # what followed the damage is unknown (a cut log's counts lay in its summary)
+            counted = {"": state.lost} if state.skipped else None
+            out.append(TruncatedLogWarning(text, counted, exact=False))
         elif not self._checked.ends_with_magic:
             text = (
                 f"{self.path}: the log is truncated inside its summary section (its data "
                 f"section is whole); recovered {count} intact messages{which}"
             )
-            out.append((text, TruncatedLogWarning))
+            counted = {"": state.lost} if state.skipped else None
+            out.append(TruncatedLogWarning(text, counted, exact=not state.lost_unknown))
         return out
 
     def topics(self) -> dict[str, TopicInfo]:
@@ -228,31 +270,35 @@ class LogReader:
         if self._summary is None:
             found = self._scanned().attachments
         else:
-            with self.path.open("rb") as fh, _reading(self.path, "an attachment"):
+            with open_input(self.path, "the log") as fh, _reading(self.path, "an attachment"):
                 found, skipped = indexed_attachments(
                     fh, self._summary, self._checked.shift, require_crcs=self._require_crcs
                 )
             if skipped:
                 text = f"{self.path}: skipped damaged attachment(s) {'; '.join(skipped)}"
-                warnings.warn(text, DamagedLogWarning, stacklevel=2)
+                warnings.warn(DamagedLogWarning(text), stacklevel=2)
         return [LogAttachment(a.name, a.media_type, a.log_time, a.data) for a in found]
 
     def metadata(self) -> dict[str, dict[str, str]]:
         """name → key/value pairs of every metadata record (the last wins on a repeated
         name); a damaged record is skipped with a DamagedLogWarning naming it."""
-        if self._summary is None:
-            found = self._scanned().metadata
-        else:
-            if self._metadata is None:  # a few small records, asked for by several readers
-                with self.path.open("rb") as fh, _reading(self.path, "a metadata record"):
-                    self._metadata, skipped = indexed_metadata(
-                        fh, self._summary, self._checked.shift
-                    )
-                if skipped:
-                    text = f"{self.path}: skipped damaged metadata {'; '.join(skipped)}"
-                    warnings.warn(text, DamagedLogWarning, stacklevel=2)
-            found = self._metadata
-        return {m.name: dict(m.metadata) for m in found}
+        if self._metadata is None:  # a few small records, asked for by several readers
+            skipped: list[str] = []
+            if self._summary is None:
+                found = self._scanned().metadata
+            else:
+                with (
+                    open_input(self.path, "the log") as fh,
+                    _reading(self.path, "a metadata record"),
+                ):
+                    found, skipped = indexed_metadata(fh, self._summary, self._checked.shift)
+            required = self._library.endswith(contract.METADATA_CRC_MARK)
+            self._metadata, failed = checked_metadata(found, required=required)
+            skipped += failed
+            if skipped:
+                text = f"{self.path}: skipped damaged metadata {'; '.join(skipped)}"
+                warnings.warn(DamagedLogWarning(text), stacklevel=2)
+        return {m.name: dict(m.metadata) for m in self._metadata}
 
     # ---- messages -------------------------------------------------------------------------
 
@@ -260,18 +306,18 @@ class LogReader:
         """Undecoded messages in log-time order (a TruncatedLogWarning at the end if the log
         is damaged). A message's ``data`` is a read-only memoryview of its chunk
         (:mod:`flylog.io.chunks`): ``bytes(data)`` to keep it apart."""
-        damage: list[tuple[str, type[Warning]]] = []
+        damage: list[DamagedLogWarning] = []
         yield from self._raw(topics, damage)
-        for text, category in damage:
-            warnings.warn(text, category, stacklevel=3)
+        for w in damage:
+            warnings.warn(w, stacklevel=3)
 
     def _raw(
-        self, topics: Iterable[str] | None, damage: list[tuple[str, type[Warning]]]
+        self, topics: Iterable[str] | None, damage: list[DamagedLogWarning]
     ) -> Iterator[RawMessage]:
         """:meth:`raw_messages` that appends the damage report to ``damage`` instead of
         warning (warnings are process-wide: a reading thread must not issue them)."""
         wanted = None if topics is None else frozenset(topics)
-        with self.path.open("rb") as fh:
+        with open_input(self.path, "the log") as fh:
             if self._summary is not None:
                 yield from self._raw_indexed(fh, self._summary, wanted, damage)
                 return
@@ -293,23 +339,28 @@ class LogReader:
         fh: BinaryIO,
         summary: Summary,
         wanted: frozenset[str] | None,
-        damage: list[tuple[str, type[Warning]]],
+        damage: list[DamagedLogWarning],
     ) -> Iterator[RawMessage]:
         """The messages of a log with an intact summary; the count read is checked against
         its statistics, and skipped chunks are reported with the messages they held."""
         skipped: list[str] = []
-        count = 0
+        read: dict[int, int] = {}  # channel id → messages read
         with _reading(self.path, "a chunk"):
             for raw in indexed_messages(fh, summary, wanted, skipped, self._checked.shift):
-                count += 1
+                read[raw.channel.id] = read.get(raw.channel.id, 0) + 1
                 yield raw
         stats = summary.statistics
         assert stats is not None
-        listed = sum(
-            n
+        promised = {
+            i: n
             for i, n in stats.channel_message_counts.items()
             if wanted is None or summary.channels[i].topic in wanted
-        )
+        }
+        count, listed = sum(read.values()), sum(promised.values())
+        lost: dict[str, int] = {}
+        for i, n in promised.items():
+            topic = summary.channels[i].topic
+            lost[topic] = lost.get(topic, 0) + max(0, n - read.get(i, 0))
         shift = self._checked.shift
         if shift:
             text = (
@@ -317,7 +368,7 @@ class LogReader:
                 f"{'longer' if shift > 0 else 'shorter'} than its summary says (a span "
                 "inserted or lost): the records after that point are read where they lie"
             )
-            damage.extend(self._unsaid([(text, DamagedLogWarning)]))
+            damage.extend(self._unsaid([DamagedLogWarning(text)]))
         if skipped or count != listed:
             which = "" if wanted is None else f" on {', '.join(sorted(wanted))}"
             where = f"skipped {'; '.join(skipped)}: " if skipped else ""
@@ -325,7 +376,7 @@ class LogReader:
                 f"{self.path}: {where}read {count} of the {listed} messages{which} its "
                 f"summary lists ({listed - count} lost)"
             )
-            damage.append((text, DamagedLogWarning))
+            damage.append(DamagedLogWarning(text, lost))
 
     def messages(
         self, topics: Iterable[str] | None = None, *, read_ahead: int = 0
@@ -335,13 +386,13 @@ class LogReader:
         With ``read_ahead`` > 0, a background thread reads, decompresses and decodes up to
         that many messages ahead of the consumer (see :mod:`flylog.io.readahead`)."""
         decode = Decoding(self.path)
-        damage: list[tuple[str, type[Warning]]] = []
+        damage: list[DamagedLogWarning] = []
         decoded: Iterator[LogMessage] = (decode(raw) for raw in self._raw(topics, damage))
         if read_ahead > 0:
             decoded = read_ahead_of(decoded, read_ahead)
         yield from decoded
-        for text, category in damage:
-            warnings.warn(text, category, stacklevel=2)
+        for w in damage:
+            warnings.warn(w, stacklevel=2)
 
     def first(self, topic: str) -> LogMessage:
         """The first message on ``topic``; LogError if none can be read (the topic is

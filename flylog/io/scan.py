@@ -16,9 +16,9 @@ import itertools
 import mmap
 import struct
 import zlib
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
-from typing import IO
+from typing import IO, Any
 
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
@@ -33,6 +33,7 @@ __all__ = [
     "RawMessage",
     "ScanState",
     "TruncatedLogWarning",
+    "messages_lost",
     "scan_messages",
 ]
 
@@ -42,11 +43,48 @@ MAX_RECORD_BYTES = 1 << 31
 
 class DamagedLogWarning(UserWarning):
     """A log is damaged: the warning names what was skipped and how many messages it held;
-    everything else was read."""
+    everything else was read.
+
+    ``lost`` counts the messages lost by topic (``""``: topics unknown, the channel records
+    of a front-to-back reading say nothing about a chunk they cannot read); ``exact`` is
+    False when some were lost uncounted (a cut log, whose counts lay in its summary, or a
+    span read past with no index of what it held): then ``lost`` is a lower bound. A warning
+    about damage that loses no message has ``lost`` empty. :func:`messages_lost` totals the
+    warnings of several readings of one log."""
+
+    def __init__(
+        self, text: str, lost: Mapping[str, int] | None = None, *, exact: bool = True
+    ) -> None:
+        super().__init__(text)
+        self.lost: dict[str, int] = {k: v for k, v in (lost or {}).items() if v}
+        self.exact = exact
+
+    def __reduce__(self) -> tuple[Any, ...]:  # the counts travel with it between processes
+        return (_rebuilt, (type(self), str(self), self.lost, self.exact))
+
+
+def _rebuilt(
+    cls: type[DamagedLogWarning], text: str, lost: dict[str, int], exact: bool
+) -> DamagedLogWarning:
+    return cls(text, lost, exact=exact)
 
 
 class TruncatedLogWarning(DamagedLogWarning):
     """A log ended early (unfinished or cut); everything before the damage was read."""
+
+
+def messages_lost(found: Iterable[Warning]) -> tuple[int, bool]:
+    """The messages the DamagedLogWarnings in ``found`` say were lost, and whether the count
+    is exact. Several readings of one log (its images, then its odometry, say) report the
+    same topic's loss each: a topic counts its largest loss once."""
+    most: dict[str, int] = {}
+    exact = True
+    for w in found:
+        if isinstance(w, DamagedLogWarning):
+            exact = exact and w.exact
+            for topic, n in w.lost.items():
+                most[topic] = max(most.get(topic, 0), n)
+    return sum(most.values()), exact
 
 
 @dataclass

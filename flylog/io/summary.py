@@ -72,12 +72,15 @@ def read_checked_summary(fh: IO[bytes]) -> CheckedSummary:
     end = size - _TAIL
     if start == 0:
         return CheckedSummary(None, ends_with_magic=True)
-    if not len(MAGIC) <= start <= end or not (offsets == 0 or start <= offsets <= end):
-        what = f"its footer points at byte {start}, outside the file"
-        return CheckedSummary(None, what, ends_with_magic=True)
     found = start
-    if crc != 0 and _crc_of(fh, start, end, start, offsets) != crc:
-        moved = _moved_summary(fh, start, end, offsets, crc)
+    inside = len(MAGIC) <= start <= end and (offsets == 0 or start <= offsets <= end)
+    if not inside or (crc != 0 and _crc_of(fh, start, end, start, offsets) != crc):
+        # A record deleted from the data section (a lost chunk) moves the summary nearer
+        # the file's start, past where the footer points when it was near the end.
+        moved = _moved_summary(fh, start, end, offsets, crc) if crc != 0 else None
+        if moved is None and not inside:
+            what = f"its footer points at byte {start}, outside the file"
+            return CheckedSummary(None, what, ends_with_magic=True)
         if moved is None:
             what = "its summary section is damaged (the summary CRC does not match)"
             return CheckedSummary(None, what, start, crc, ends_with_magic=True)

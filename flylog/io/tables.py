@@ -18,7 +18,8 @@ from pathlib import Path
 from types import TracebackType
 from typing import TYPE_CHECKING, Any, NamedTuple
 
-from flylog.io.atomic import publish, temporary_beside
+from flylog.io.atomic import Batch, publish, temporary_beside
+from flylog.io.inputs import input_path
 
 if TYPE_CHECKING:
     import pyarrow as pa
@@ -82,8 +83,9 @@ class TableWriter:
 
     Rows are buffered and flushed every ``rows_per_group`` rows; the file appears at
     ``path`` only when the block ends without an exception (written to a temporary file
-    in the same directory, then renamed). ``schema`` is a pyarrow schema or the columns to
-    make one of (:func:`schema`), with pyarrow, when the first row comes.
+    in the same directory, then renamed; with ``batch``, renamed with the batch's other
+    outputs, :class:`flylog.io.atomic.Batch`). ``schema`` is a pyarrow schema or the
+    columns to make one of (:func:`schema`), with pyarrow, when the first row comes.
     """
 
     def __init__(
@@ -93,8 +95,10 @@ class TableWriter:
         *,
         rows_per_group: int = 8192,
         metadata: dict[str, str] | None = None,
+        batch: Batch | None = None,
     ) -> None:
         self.path = Path(path)
+        self._batch = batch
         self._source: pa.Schema | tuple[Column, ...]
         if isinstance(schema, Sequence):  # columns (a pyarrow schema is no Sequence)
             self._source = tuple(schema)
@@ -164,8 +168,49 @@ class TableWriter:
             if exc_type is None:
                 self._flush()
                 self._open().close()
-                publish(self._tmp, self.path)
+                publish(self._tmp, self.path, self._batch)
+                self._tmp = None  # renamed, or the batch's now
         finally:
             if self._writer is not None:
                 self._writer.close()
-            self._tmp.unlink(missing_ok=True)
+            if self._tmp is not None:
+                self._tmp.unlink(missing_ok=True)
+
+
+class ColumnInfo(NamedTuple):
+    """A column of a Parquet file as ``flylog describe`` shows it."""
+
+    name: str
+    type: str
+    unit: str
+    description: str
+
+
+def describe_table(path: str | os.PathLike[str]) -> tuple[int, list[ColumnInfo]]:
+    """The row count and columns of the Parquet file ``path``, each with its unit and
+    description from the file's ``flylog.columns`` key-value metadata (else the field's own
+    metadata; empty for a table flylog did not write). LogError if it is not Parquet."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from flylog.errors import LogError
+
+    try:
+        meta = pq.ParquetFile(input_path(path, "the table")).metadata
+        arrow = pq.read_schema(input_path(path, "the table"))
+    except (pa.ArrowInvalid, OSError) as exc:
+        msg = f"{path}: not a readable Parquet file ({exc})"
+        raise LogError(msg) from None
+    kv = arrow.metadata or {}
+    try:
+        documented = json.loads(kv.get(COLUMNS_METADATA_KEY.encode(), b"{}"))
+    except (json.JSONDecodeError, UnicodeDecodeError):
+        documented = {}
+    out = []
+    for field in arrow:
+        own = {k.decode(): v.decode() for k, v in (field.metadata or {}).items()}
+        doc = documented.get(field.name, own) if isinstance(documented, dict) else own
+        out.append(
+            ColumnInfo(field.name, str(field.type), doc.get("unit", ""), doc.get("description", ""))
+        )
+    return meta.num_rows, out

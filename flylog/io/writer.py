@@ -22,7 +22,7 @@ import flylog
 from flylog.config import param
 from flylog.errors import LogError
 from flylog.io import contract
-from flylog.io.atomic import publish, temporary_beside
+from flylog.io.atomic import Batch, publish, temporary_beside
 
 
 class Compression(enum.Enum):
@@ -47,13 +47,14 @@ MAX_WRITE_LAG_NS = 1_000_000_000
 class LogConfig:
     """How logs are written."""
 
-    # lz4 keeps the simulator above 30 stereo pairs/s even on one core: on its 640×480
-    # frames (tests/benchmarks/bench_simulate.py) simulate runs at ~34 pairs/s single-threaded
-    # with lz4 (logs 0.35–0.40 of raw), ~29 with zstd level 3, mcap's (0.21–0.24 of raw,
-    # ~4–5 ms more a pair); reading back is about as fast for both (~300 pairs/s).
+    # zstd: a sensor log is kept and replayed many times, written once. The corridor at
+    # 640×480, 6 s (tests/benchmarks/bench_compression.py, docs/performance.md): 160 MiB raw,
+    # 79 MiB with lz4, 43 MiB with zstd (level 3, mcap's); writing costs 1.15 s of CPU with
+    # zstd against 0.63 s with lz4 (~6 ms more a stereo pair, simulate's ~30 pairs/s on one
+    # core become ~25), reading 0.31 s against 0.18 s, 0.5 % of the log's replay.
     compression: Compression = param(
-        Compression.LZ4,
-        help="chunk compression: lz4 (fast), zstd (~40 % smaller, ~2× the CPU) or none",
+        Compression.ZSTD,
+        help="chunk compression: zstd (0.55× lz4's size), lz4 (1.8× less CPU to write) or none",
     )
     chunk_size: int = param(
         4 * 1024 * 1024,
@@ -76,8 +77,12 @@ class LogWriter:
         *,
         compression: Compression | str = _DEFAULTS.compression,
         chunk_size: int = _DEFAULTS.chunk_size,
+        batch: Batch | None = None,
     ) -> None:
+        """``batch``: published with the batch's other outputs (:class:`Batch`), not at the
+        ``with`` block's end."""
         self.path = Path(path)
+        self._batch = batch
         self._compression = Compression(compression)
         self._chunk_size = int(chunk_size)
         self._tmp: Path | None = None
@@ -104,7 +109,8 @@ class LogWriter:
             # `mcap doctor` reports as errors; readers find the summary without offsets.
             use_summary_offsets=False,
         )
-        self._writer.start(profile="", library=f"flylog/{flylog.__version__}")
+        library = f"flylog/{flylog.__version__}{contract.METADATA_CRC_MARK}"
+        self._writer.start(profile="", library=library)
         return self
 
     def __exit__(
@@ -120,11 +126,13 @@ class LogWriter:
                 self._fh.flush()
                 os.fsync(self._fh.fileno())
                 self._fh.close()
-                publish(self._tmp, self.path)
+                publish(self._tmp, self.path, self._batch)
+                self._tmp = None  # renamed, or the batch's now
         finally:
             if not self._fh.closed:
                 self._fh.close()
-            self._tmp.unlink(missing_ok=True)
+            if self._tmp is not None:
+                self._tmp.unlink(missing_ok=True)
             self._writer = None
 
     def _live(self) -> Writer:
@@ -198,7 +206,9 @@ class LogWriter:
         if bad:
             msg = f"metadata '{name}' must map strings to strings; got {bad!r}"
             raise LogError(msg)
-        self._live().add_metadata(name, dict(values))
+        checked = {k: v for k, v in values.items() if k != contract.METADATA_CRC_KEY}
+        checked[contract.METADATA_CRC_KEY] = contract.metadata_crc(name, checked)
+        self._live().add_metadata(name, checked)
 
 
 def _schema_of(topic: str, message: Any) -> str:

@@ -30,6 +30,7 @@ from flylog.config import from_mapping, to_mapping
 from flylog.errors import LogError
 from flylog.fly.obstacles import ObstacleFlies
 from flylog.io import contract, open_log
+from flylog.io.atomic import Batch
 from flylog.io.reader import LogReader
 from flylog.io.records import LogMessage
 from flylog.metrics import tables
@@ -100,6 +101,8 @@ class MetricsResult:
     obstacles: list[dict[str, Any]]
     summary: dict[str, Any]
     config: MetricsConfig
+    # the confidence's reliability table (flylog.metrics.calibration.reliability), or none
+    reliability: list[dict[str, Any]] = dataclasses.field(default_factory=list)
 
 
 def _number(meta: dict[str, str], key: str, kind: type) -> Any:
@@ -139,9 +142,9 @@ def _snapshot_row(t_ns: int, t0_ns: int, pose: np.ndarray, score: Any) -> dict[s
     return {
         "stamp_ns": int(t_ns),
         "t_s": (t_ns - t0_ns) / 1e9,
-        "true_x": float(pose[0]),
-        "true_y": float(pose[1]),
-        "true_theta": float(pose[2]),
+        "true_x_m": float(pose[0]),
+        "true_y_m": float(pose[1]),
+        "true_theta_rad": float(pose[2]),
         "flies": score.flies,
         "obstacle_flies": score.obstacle_flies,
         "in_view": score.in_view,
@@ -207,7 +210,7 @@ def score_run(
     fingerprint = check_run_log(run, log, replayed)  # before any work: the right log?
     if has_image_truth(log):
         result: MetricsResult = score_image_run(run, log, config)
-        return result
+        return _with_confidence(result, run, log, reader)
     provenance = {
         "log_fingerprint": fingerprint,
         "run_config": run_config_digest(replayed),
@@ -222,7 +225,8 @@ def score_run(
         ahead = [] if first is None else [first]
         stream = itertools.chain(ahead, () if messages is None else messages)
         result = _scored(run, log, config, reader, stream, on_progress, wall0)
-        return dataclasses.replace(result, summary={**result.summary, **provenance})
+        result = dataclasses.replace(result, summary={**result.summary, **provenance})
+        return _with_confidence(result, run, log, reader)
     finally:
         if messages is not None:
             messages.close()  # stops the reading thread if scoring failed
@@ -313,7 +317,7 @@ def _scored(
     if pending:
         score_pending()
 
-    xy = np.array([[r["true_x"], r["true_y"]] for r in rows]).reshape(-1, 2)
+    xy = np.array([[r["true_x_m"], r["true_y_m"]] for r in rows]).reshape(-1, 2)
     for row, nearest in zip(rows, distance_to_obstacles(truth.scene, xy), strict=True):
         row["nearest_true_m"] = float(nearest)
     t_s = np.array([r["t_s"] for r in rows])
@@ -331,7 +335,7 @@ def _scored(
             "first_visible_s": float(det.first_visible[k]),
             "first_detected_s": float(det.first_detected[k]),
             "latency_s": float(det.latency[k]),
-            "max_visible_pixels": int(det.max_visible_pixels[k]),
+            "max_visible_px": int(det.max_visible_pixels[k]),
             "max_flies_on": int(det.max_flies_on[k]),
         }
         for k, ob in enumerate(truth.scene.obstacles)
@@ -383,14 +387,46 @@ def _scored(
     return MetricsResult(rows, obstacle_rows, summary, config)
 
 
+def _with_confidence(
+    result: MetricsResult, run: str | Path, log: str | Path, reader: LogReader
+) -> MetricsResult:
+    """``result`` with the packaged confidence model's calibration on the run's flies
+    (:mod:`flylog.metrics.calibration`): the summary's ``confidence_ece`` and
+    ``confidence_flies`` (NaN and 0 without /flies or without a model) and the reliability
+    table."""
+    from flylog.fly import confidence
+    from flylog.metrics.calibration import score_confidence
+
+    model = confidence.load()
+    if model is None or contract.FLIES not in reader.topics():
+        summary = {**result.summary, "confidence_ece": math.nan, "confidence_flies": 0}
+        return dataclasses.replace(result, summary=summary)
+    score = score_confidence(run, log, result.config, model)
+    summary = {**result.summary, "confidence_ece": score.ece, "confidence_flies": score.flies}
+    return dataclasses.replace(result, summary=summary, reliability=score.table)
+
+
+def write_reliability(result: MetricsResult, output: str | Path) -> Path | None:
+    """Write the reliability table (``NAME.reliability.parquet`` beside ``output``), when the
+    result has one; returns its path."""
+    if not result.reliability:
+        return None
+    path = tables.reliability_path(Path(output))
+    meta = {tables.METADATA_KEY: json.dumps(to_mapping(result.config))}
+    tables.write_table(path, tables.RELIABILITY_COLUMNS, result.reliability, meta)
+    return path
+
+
 def write_metrics(result: MetricsResult, output: str | Path) -> tuple[Path, Path, Path]:
     """Write the snapshot table to ``output`` and the summary and obstacle tables beside it
-    (``NAME.summary.parquet``, ``NAME.obstacles.parquet``); returns the three paths."""
+    (``NAME.summary.parquet``, ``NAME.obstacles.parquet``), published together (all three
+    new, or all three as they were); returns the three paths."""
     output = Path(output)
     tables.check_output_name(output)
     meta = {tables.METADATA_KEY: json.dumps(to_mapping(result.config))}
     paths = (output, tables.summary_path(output), tables.obstacles_path(output))
-    tables.write_table(paths[0], tables.SNAPSHOT_COLUMNS, result.snapshots, meta)
-    tables.write_table(paths[1], tables.SUMMARY_COLUMNS, [result.summary], meta)
-    tables.write_table(paths[2], tables.OBSTACLE_COLUMNS, result.obstacles, meta)
+    with Batch() as batch:
+        tables.write_table(paths[0], tables.SNAPSHOT_COLUMNS, result.snapshots, meta, batch)
+        tables.write_table(paths[1], tables.SUMMARY_COLUMNS, [result.summary], meta, batch)
+        tables.write_table(paths[2], tables.OBSTACLE_COLUMNS, result.obstacles, meta, batch)
     return paths

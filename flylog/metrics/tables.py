@@ -18,10 +18,13 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from flylog.errors import LogError, OutputError
+from flylog.io.atomic import Batch
+from flylog.io.inputs import input_path
 from flylog.io.tables import Column, TableWriter, schema
 
 SUMMARY_SUFFIX = ".summary.parquet"
 OBSTACLES_SUFFIX = ".obstacles.parquet"
+RELIABILITY_SUFFIX = ".reliability.parquet"
 METADATA_KEY = "flylog.metrics"
 
 
@@ -30,9 +33,9 @@ _F, _I, _B, _S = pa.float64(), pa.int64(), pa.bool_(), pa.string()
 SNAPSHOT_COLUMNS = (
     Column("stamp_ns", _I, "ns", "log time of the /flies snapshot"),
     Column("t_s", _F, "s", "time since the first true pose"),
-    Column("true_x", _F, "m", "true position x at the snapshot (interpolated)"),
-    Column("true_y", _F, "m", "true position y"),
-    Column("true_theta", _F, "rad", "true heading"),
+    Column("true_x_m", _F, "m", "true position x at the snapshot (interpolated)"),
+    Column("true_y_m", _F, "m", "true position y"),
+    Column("true_theta_rad", _F, "rad", "true heading"),
     Column("flies", _I, "", "flies in the snapshot"),
     Column("obstacle_flies", _I, "", "flies taken for obstacles (the run's rule)"),
     Column("in_view", _I, "", "obstacle flies projecting inside the left image"),
@@ -52,6 +55,20 @@ SNAPSHOT_COLUMNS = (
     Column("bad1", _F, "", "share of the scored flies off by more than 1 px of disparity"),
     Column("bad2", _F, "", "share of the scored flies off by more than 2 px of disparity"),
     Column("coverage", _F, "", "share of ground-truth cells holding a fly within 2 px"),
+)
+
+# the packaged confidence model's calibration on the run (flylog.metrics.calibration)
+CONFIDENCE_COLUMNS = (
+    Column("confidence_ece", _F, "", "expected calibration error of the flies' confidence"),
+    Column("confidence_flies", _I, "", "valid flies in view on known truth, judged for it"),
+)
+
+RELIABILITY_COLUMNS = (
+    Column("bin_low", _F, "", "lower bound of the confidence bin"),
+    Column("bin_high", _F, "", "upper bound of the confidence bin"),
+    Column("flies", _I, "", "judged flies whose confidence falls in the bin"),
+    Column("mean_confidence", _F, "", "their mean confidence"),
+    Column("on_surface_share", _F, "", "their share within tau of the true surface"),
 )
 
 SUMMARY_COLUMNS = (
@@ -99,6 +116,7 @@ SUMMARY_COLUMNS = (
     Column("sgbm_dense_bad1", _F, "", "sgbm runs: share of matched truth pixels off by > 1 px"),
     Column("sgbm_dense_bad2", _F, "", "sgbm runs: share of matched truth pixels off by > 2 px"),
     Column("sgbm_dense_density", _F, "", "sgbm runs: share of truth pixels the map matched"),
+    *CONFIDENCE_COLUMNS,
 )
 
 OBSTACLE_COLUMNS = (
@@ -107,7 +125,7 @@ OBSTACLE_COLUMNS = (
     Column("first_visible_s", _F, "s", "first snapshot with min_visible_pixels on it"),
     Column("first_detected_s", _F, "s", "first snapshot since with min_detecting_flies on it"),
     Column("latency_s", _F, "s", "first_detected_s - first_visible_s"),
-    Column("max_visible_pixels", _I, "px", "most pixels of the view it ever covered"),
+    Column("max_visible_px", _I, "px", "most pixels of the view it ever covered"),
     Column("max_flies_on", _I, "", "most obstacle flies ever on it"),
 )
 
@@ -124,8 +142,9 @@ def write_table(
     columns: tuple[Column, ...],
     rows: Iterable[Mapping[str, Any]],
     metadata: dict[str, str],
+    batch: Batch | None = None,
 ) -> None:
-    with TableWriter(path, schema(columns), metadata=metadata) as table:
+    with TableWriter(path, schema(columns), metadata=metadata, batch=batch) as table:
         for row in rows:
             table.append({c.name: clean(row[c.name]) for c in columns})
 
@@ -138,12 +157,24 @@ def check_output_name(path: Path) -> None:
         raise OutputError(msg, parameter="output")
 
 
+def default_output(run: Path) -> Path:
+    """Where ``flylog metrics RUN`` writes without ``-o``: beside the run, ``NAME.metrics.parquet``
+    for ``NAME.mcap`` (``NAME.parquet`` is the replay's own step table)."""
+    run = Path(run)
+    return run.with_name(run.stem + ".metrics.parquet")
+
+
 def summary_path(path: Path) -> Path:
     """``NAME.summary.parquet`` beside ``NAME.parquet`` (a summary path is kept as is)."""
     path = Path(path)
     if path.name.endswith(SUMMARY_SUFFIX):
         return path
     return path.with_name(path.name.removesuffix(".parquet") + SUMMARY_SUFFIX)
+
+
+def reliability_path(path: Path) -> Path:
+    path = Path(path)
+    return path.with_name(path.name.removesuffix(".parquet") + RELIABILITY_SUFFIX)
 
 
 def obstacles_path(path: Path) -> Path:
@@ -158,7 +189,7 @@ def read_summary(path: Path) -> dict[str, Any]:
         msg = f"{found}: no such metrics summary (made by `flylog metrics -o {path}`)"
         raise LogError(msg)
     try:
-        rows = pq.read_table(found).to_pylist()
+        rows = pq.read_table(input_path(found, "the metrics summary")).to_pylist()
     except (pa.ArrowInvalid, OSError) as exc:
         msg = f"{found}: not a readable Parquet file ({exc})"
         raise LogError(msg) from None

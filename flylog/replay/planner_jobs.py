@@ -121,22 +121,22 @@ class PlannerJobs:
             return Outputs(messages, command)
         valid = pop.fitness[pop.fitness > 0] if pop is not None else np.empty(0)
         row = {
-            "t": t_ns / 1e9,
+            "t_s": t_ns / 1e9,
             "generation": seen.generation,
             "evaluations": tick.evaluations,
             "valid_flies": len(valid),
             "obstacle_flies": len(obstacles),
             "best_fitness": float(valid.max()) if len(valid) else math.nan,
             "median_fitness": float(np.median(valid)) if len(valid) else math.nan,
-            "image_latency": (t_ns - seen.image_stamp_ns) / 1e9
+            "image_latency_s": (t_ns - seen.image_stamp_ns) / 1e9
             if seen.image_stamp_ns >= 0
             else math.nan,
-            "odom_latency": (t_ns - tick.odom.stamp_ns) / 1e9,
-            "x": pose.x,
-            "y": pose.y,
-            "theta": pose.theta,
-            "linear": command.linear,
-            "angular": command.angular,
+            "odom_latency_s": (t_ns - tick.odom.stamp_ns) / 1e9,
+            "x_m": pose.x,
+            "y_m": pose.y,
+            "theta_rad": pose.theta,
+            "linear_m_s": command.linear,
+            "angular_rad_s": command.angular,
             "status": status.value,
             "potential_change": change,
         }
@@ -197,7 +197,8 @@ class PlannerJobs:
         return Outputs(messages)
 
     def _planner_snapshot(self, t_ns: int, robot_pose: Pose2D) -> list[tuple[str, int, Any]]:
-        """The potential and the path the robot would follow from ``robot_pose``, now."""
+        """The potential, the path the robot would follow from ``robot_pose`` and the obstacle
+        map, now."""
         ox, oy = self.planner.origin
         grid = encode.grid(
             self.planner.potential, Pose2D(ox, oy, 0.0), self.planner.cell_size, t_ns,
@@ -206,7 +207,15 @@ class PlannerJobs:
         path = encode.poses_in_frame(
             path_poses(self.planner.path(robot_pose)), t_ns, contract.ODOM_FRAME
         )
-        return [(contract.PLANNER_POTENTIAL, t_ns, grid), (contract.PLANNER_PATH, t_ns, path)]
+        occupancy = encode.occupancy_grid(
+            self.planner.detected_mask, self.planner.obstacle_mask, Pose2D(ox, oy, 0.0),
+            self.planner.cell_size, t_ns, contract.ODOM_FRAME,
+        )  # fmt: skip
+        return [
+            (contract.PLANNER_POTENTIAL, t_ns, grid),
+            (contract.PLANNER_PATH, t_ns, path),
+            (contract.PLANNER_MAP, t_ns, occupancy),
+        ]
 
 
 def path_poses(points: np.ndarray) -> np.ndarray:

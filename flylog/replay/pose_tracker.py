@@ -1,18 +1,16 @@
 """The robot's pose as the pipeline knows it: the odometry, interpolated to each image's
 stamp and heading-corrected by the flies' visual measurement of each turn
-(``config.heading``, :mod:`flylog.fly.heading`)."""
+(``config.heading``: :class:`flylog.fly.heading.VisualHeading`, an engine feature)."""
 
 from __future__ import annotations
 
-import math
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 
-import numpy as np
-
 from flylog.fly.config import Similarity
-from flylog.fly.heading import HeadingConfig, fused_yaw, measure_yaw
+from flylog.fly.heading import KEYFRAME_FLIES as KEYFRAME_FLIES
+from flylog.fly.heading import HeadingConfig, VisualHeading
 from flylog.fly.population import Population
 from flylog.geometry import Pose2D, StereoRig, compose, inverse, relative
 from flylog.geometry.poses import wrap_angle
@@ -63,21 +61,6 @@ def _along(p: Pose2D, q: Pose2D, a: float) -> Pose2D:
     return Pose2D(p.x + a * (q.x - p.x), p.y + a * (q.y - p.y), wrap_angle(p.theta + a * turn))
 
 
-KEYFRAME_FLIES = 3  # flies kept with a keyframe, per one compared (some leave the view)
-
-
-@dataclass
-class _Keyframe:
-    """The pair the next heading measurement compares with: its flies (base_link there), the
-    robot's pose there, and what came since (pairs, the odometry's heading variance)."""
-
-    pair: StereoPair
-    xyz: np.ndarray
-    pose: Pose2D
-    pairs: int = 0
-    variance: float = 0.0
-
-
 @dataclass(frozen=True)
 class PairPose:
     """Where the robot was when a stereo pair was taken, as :meth:`PoseTracker.at_pair`
@@ -100,13 +83,10 @@ class PoseTracker:
         start: Pose2D,
         similarity: Similarity = Similarity.ZSSD,
     ) -> None:
-        self._config = config
-        self._similarity = similarity  # the engine's: the heading compares patches with it
-        self._rig = rig
+        self._heading = VisualHeading(config, rig, similarity)
         self._odom = OdomReading(0, start)
         self._history: deque[OdomReading] = deque([self._odom], maxlen=ODOM_HISTORY)
         self._correction: Pose2D | None = None
-        self._keyframe: _Keyframe | None = None  # what the next heading measurement uses
         self._pair: StereoPair | None = None  # the newest pair
         # (corrected) odometry at the newest pair's stamp: the engine's flies are expressed
         # in base_link there
@@ -152,40 +132,16 @@ class PoseTracker:
         population: Callable[[], Population],
     ) -> tuple[Pose2D, int]:
         """The robot's pose at ``pair`` (``pose``, from ``odometry`` there), its heading
-        corrected, when a measurement is due and the robot turned since the keyframe, by the
-        flies' measurement of the turn since the keyframe fused with the odometry's
-        (config.heading); the correction then applies to all odometry. The pair that was due,
-        with the flies fitted to it, is the next keyframe. Also the measurement's fitness
-        evaluations."""
-        cfg, previous, engine_pose = self._config, self._pair, self.at_images
+        corrected when the engine's visual heading (:class:`~flylog.fly.heading.VisualHeading`)
+        measures the turn since its keyframe; the correction then applies to all odometry.
+        Also the measurement's fitness evaluations."""
+        previous, engine_pose = self._pair, self.at_images
         assert engine_pose is not None
-        if not cfg.enabled or previous is None:
+        if previous is None:
             return pose, 0
-        if self._keyframe is None:
-            pop = population()
-            fittest = np.argsort(-pop.fitness, kind="stable")
-            fittest = fittest[pop.fitness[fittest] > 0][: KEYFRAME_FLIES * cfg.flies]
-            self._keyframe = _Keyframe(previous, pop.xyz[fittest], engine_pose)
-        key = self._keyframe
-        key.pairs += 1
-        key.variance += cfg.odometry_variance(
-            relative(engine_pose, pose), (pair.stamp_ns - previous.stamp_ns) / 1e9
-        )
-        since = relative(key.pose, pose)
-        if key.variance == 0.0 or not cfg.due(since, key.pairs):
-            return pose, 0
-        self._keyframe = None
-        if abs(since.theta) < math.radians(cfg.min_turn_deg):
-            return pose, 0
-        measured = measure_yaw(
-            (key.pair.left, key.pair.right), (pair.left, pair.right), key.xyz, since,
-            self._rig, cfg, similarity=self._similarity,
-        )  # fmt: skip
-        evaluations = cfg.evaluations(measured.flies)
-        if measured.yaw is None:
+        turn, evaluations = self._heading.turn(previous, pair, engine_pose, pose, population)
+        if turn is None:
             return pose, evaluations
-        sd = cfg.measurement_sd_px / self._rig.focal_px
-        turn = fused_yaw(measured.yaw, key.variance, sd, cfg.gate)
         pose = Pose2D(pose.x, pose.y, wrap_angle(pose.theta + turn))
         self._correction = compose(pose, inverse(odometry))
         newest = self._history[-1]

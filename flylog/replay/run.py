@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import json
 import math
@@ -14,6 +13,7 @@ from pathlib import Path
 from flylog.budget import DEFAULT_LIMITS, Limits, check_sampling_rates, replay_estimate
 from flylog.config import to_mapping
 from flylog.io import contract
+from flylog.io.atomic import Batch
 from flylog.io.collisions import Role, check_outputs
 from flylog.io.fingerprint import log_fingerprint
 from flylog.io.tables import Column, TableWriter
@@ -28,10 +28,11 @@ from flylog.replay.source import (
 )
 from flylog.ros2.config import BagOptions
 
-# The run log is written uncompressed: its bulk is float32 potentials and fly clouds, which
-# lz4 shrinks by 13 % only (98 → 85 MB on the 60 s reference run) for 0.3 s of the replay's
-# main thread (0.1 s without compression), and reading it back (flylog metrics) is faster too.
-RUN_COMPRESSION = Compression.NONE
+# The run log is written with zstd chunks: its bulk is float32 potentials and fly clouds,
+# which zstd shrinks to 0.71 (lz4: 0.90) of their size; on the corridor's 6 s at 640×480
+# (docs/performance.md) writing costs 0.087 s of CPU against 0.022 s uncompressed, 0.3 % of
+# the replay's wall time, and reading it back (flylog metrics) 0.014 s against 0.004 s.
+RUN_COMPRESSION = Compression.ZSTD
 # Progress is reported at most this often, in log time (the log has ~90 messages a second).
 PROGRESS_STEP_NS = 100_000_000
 
@@ -42,20 +43,22 @@ _F, _I, _S = "float64", "int64", "string"
 
 # RUN.parquet: one row per planner tick (the README's table is made from this).
 STEP_COLUMNS = (
-    Column("t", _F, "s", "log time of the planner tick"),
+    Column("t_s", _F, "s", "log time of the planner tick"),
     Column("generation", _I, "", "generations (sgbm: frames matched) behind what the planner saw"),
     Column("evaluations", _I, "", "fitness evaluations so far (sgbm: the distinctness test's)"),
     Column("valid_flies", _I, "", "flies inside both images, with positive fitness (sgbm: points)"),
     Column("obstacle_flies", _I, "", "flies taken for obstacles (the [obstacles] rule)"),
     Column("best_fitness", _F, "", "best fitness of the population the planner saw"),
     Column("median_fitness", _F, "", "median fitness of its valid flies"),
-    Column("image_latency", _F, "s", "tick time − stamp of the images those flies were scored on"),
-    Column("odom_latency", _F, "s", "tick time − stamp of the newest odometry"),
-    Column("x", _F, "m", "odometric position x"),
-    Column("y", _F, "m", "odometric position y"),
-    Column("theta", _F, "rad", "odometric heading"),
-    Column("linear", _F, "m/s", "commanded linear velocity"),
-    Column("angular", _F, "rad/s", "commanded angular velocity"),
+    Column(
+        "image_latency_s", _F, "s", "tick time − stamp of the images those flies were scored on"
+    ),
+    Column("odom_latency_s", _F, "s", "tick time − stamp of the newest odometry"),
+    Column("x_m", _F, "m", "odometric position x"),
+    Column("y_m", _F, "m", "odometric position y"),
+    Column("theta_rad", _F, "rad", "odometric heading"),
+    Column("linear_m_s", _F, "m/s", "commanded linear velocity"),
+    Column("angular_rad_s", _F, "rad/s", "commanded angular velocity"),
     Column("status", _S, "", "planner status: driving, goal_reached, stuck or unreachable"),
     Column("potential_change", _F, "", "largest change of the tick's last SOR sweep"),
 )
@@ -147,64 +150,59 @@ def replay(
     check_sampling_rates(config, inputs.rig.frame_rate, source=f"the log {log}")
     replay_estimate(config, inputs.rig, duration).check(limits)
     engine_config = _without_robot(config, ground=inputs.has_ground, planner=inputs.has_planner)
-    existed = table.exists()
-    try:
-        with (
-            LogWriter(output, compression=RUN_COMPRESSION) as out,
-            TableWriter(table, STEP_COLUMNS) as rows,
-        ):
-            pipeline = FlyPipeline(
-                engine_config,
-                inputs.rig,
-                inputs.start,
-                inputs.goal,
-                out.write,
-                on_row=rows.append,
-                planner_thread=True,
-                planner=source.planner,
+    # the run and its step table are published together: both new, or both as they were
+    with (
+        Batch() as batch,
+        LogWriter(output, compression=RUN_COMPRESSION, batch=batch) as out,
+        TableWriter(table, STEP_COLUMNS, batch=batch) as rows,
+    ):
+        pipeline = FlyPipeline(
+            engine_config,
+            inputs.rig,
+            inputs.start,
+            inputs.goal,
+            out.write,
+            on_row=rows.append,
+            planner_thread=True,
+            planner=source.planner,
+        )
+        try:
+            clock = VirtualClock(
+                pipeline,
+                clock_config(config, inputs.frame_period_ns, planner=inputs.has_planner),
             )
-            try:
-                clock = VirtualClock(
-                    pipeline,
-                    clock_config(config, inputs.frame_period_ns, planner=inputs.has_planner),
-                )
-                reported_ns = inputs.start_ns
-                for message in source.records:
-                    clock.feed(message.value)
-                    if on_progress is not None and message.log_time_ns >= reported_ns:
-                        on_progress((message.log_time_ns - inputs.start_ns) / 1e9, duration)
-                        reported_ns = message.log_time_ns + PROGRESS_STEP_NS
-                stats = clock.finish(inputs.end_ns)
-                if inputs.frames == 1:
-                    # the population after all the generations made on the one pair
-                    pipeline.tick(SNAPSHOT_TICK, max(stats.now_ns, inputs.end_ns + 1))
-                if on_progress is not None:
-                    on_progress(duration, duration)
-                pipeline.flush()
-            finally:
-                pipeline.close()
-            wall = time.perf_counter() - t0
-            out.add_metadata(
-                contract.REPLAY_METADATA,
-                {
-                    "config": json.dumps(to_mapping(config)),
-                    "log": str(log),
-                    "log_fingerprint": fingerprint,
-                    "goal": json.dumps(list(inputs.goal) if source.planner else None),
-                    "generations": str(stats.generations),
-                    "evaluations": str(stats.evaluations),
-                    "frames": str(stats.frames),
-                    "wall_seconds": f"{wall:.3f}",
-                    "log_duration": f"{duration:.3f}",
-                    "ground_test": json.dumps(inputs.has_ground),
-                    "planner": json.dumps(inputs.has_planner),
-                },
-            )
-    except BaseException:
-        if not existed:
-            with contextlib.suppress(OSError):  # the error being raised says why
-                table.unlink(missing_ok=True)
-        raise
+            reported_ns = inputs.start_ns
+            for message in source.records:
+                clock.feed(message.value)
+                if on_progress is not None and message.log_time_ns >= reported_ns:
+                    on_progress((message.log_time_ns - inputs.start_ns) / 1e9, duration)
+                    reported_ns = message.log_time_ns + PROGRESS_STEP_NS
+            stats = clock.finish(inputs.end_ns)
+            if inputs.frames == 1:
+                # the population after all the generations made on the one pair
+                pipeline.tick(SNAPSHOT_TICK, max(stats.now_ns, inputs.end_ns + 1))
+            if on_progress is not None:
+                on_progress(duration, duration)
+            pipeline.flush()
+        finally:
+            pipeline.close()
+        wall = time.perf_counter() - t0
+        out.add_metadata(
+            contract.REPLAY_METADATA,
+            {
+                "config": json.dumps(to_mapping(config)),
+                "log": str(log),
+                "log_fingerprint": fingerprint,
+                "goal": json.dumps(list(inputs.goal) if source.planner else None),
+                "generations": str(stats.generations),
+                "evaluations": str(stats.evaluations),
+                "frames": str(stats.frames),
+                "wall_seconds": f"{wall:.3f}",
+                "log_duration": f"{duration:.3f}",
+                "ground_test": json.dumps(inputs.has_ground),
+                "planner": json.dumps(inputs.has_planner),
+            },
+        )
     return ReplaySummary(
         output=output,
         table=table,

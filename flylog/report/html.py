@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from flylog.io.atomic import publish, temporary_beside
+from flylog.io.inputs import read_input_bytes
 
 _STYLE = """
 body { font-family: sans-serif; margin: 1.5em auto; max-width: 78em; color: #222;
@@ -27,11 +28,16 @@ figure { margin: 0.5em 0 1.2em; } figcaption { font-size: 0.85em; color: #555; }
 img { max-width: 100%; height: auto; border: 1px solid #eee; }
 pre { background: #f7f7f7; padding: 0.7em; font-size: 0.8em; overflow-x: auto; }
 p.note { font-size: 0.85em; color: #555; }
+p.what { color: #444; margin: 0.2em 0; } p.verdict { font-size: 1.15em; margin: 0.5em 0; }
+p.figures { font-size: 0.95em; background: #f4f7fb; padding: 0.5em 0.7em;
+            border-left: 3px solid #4a78b5; }
+details { margin: 0.5em 0 1em; } summary { cursor: pointer; color: #335; }
 """
 
 
 def png_data_uri(path: Path) -> str:
-    return "data:image/png;base64," + base64.b64encode(Path(path).read_bytes()).decode("ascii")
+    data = read_input_bytes(path, "a figure")
+    return "data:image/png;base64," + base64.b64encode(data).decode("ascii")
 
 
 def cell_text(value: Any) -> str:
@@ -55,6 +61,14 @@ class Page:
 
     title: str
     parts: list[str] = field(default_factory=list)
+
+    def headline(self, what: str, verdict: str, figures: str) -> None:
+        """The top of the page: what ran on what, the verdict in a sentence, key figures."""
+        self.parts.append(
+            f'<p class="what">{html.escape(what)}</p>'
+            f'<p class="verdict"><strong>{html.escape(verdict)}</strong></p>'
+            f'<p class="figures">{html.escape(figures)}</p>'
+        )
 
     def heading(self, text: str) -> None:
         self.parts.append(f"<h2>{html.escape(text)}</h2>")
@@ -96,6 +110,13 @@ class Page:
 
     def preformatted(self, text: str) -> None:
         self.parts.append(f"<pre>{html.escape(text, quote=False)}</pre>")
+
+    def folded(self, summary: str, text: str) -> None:
+        """Preformatted ``text`` behind a line ``summary`` that unfolds it."""
+        self.parts.append(
+            f"<details><summary>{html.escape(summary)}</summary>"
+            f"<pre>{html.escape(text, quote=False)}</pre></details>"
+        )
 
     def render(self) -> str:
         title = html.escape(self.title)

@@ -17,10 +17,12 @@ from typing import Any, NamedTuple
 from mcap.reader import SeekingReader
 
 from flylog.errors import LogError
+from flylog.io.inputs import input_path, open_input, read_input_text
 from flylog.io.reader import open_log
 from flylog.io.records import TopicInfo
 from flylog.ros2.detect import ROS1_MAGIC, ROS2_PROFILE
-from flylog.ros2.types import CdrDecoder
+from flylog.ros2.frames import StaticTree
+from flylog.ros2.types import TF_STATIC, CdrDecoder
 
 METADATA_FILE = "metadata.yaml"
 
@@ -83,17 +85,27 @@ class Bag:
                 )
 
 
+def static_tree(bag: Bag) -> StaticTree:
+    """The transforms of the bag's /tf_static (an empty tree without it)."""
+    tree = StaticTree()
+    if TF_STATIC in bag.topics():
+        for m in bag.messages([TF_STATIC]):
+            tree.add(m.value)
+    return tree
+
+
 def open_bag(path: str | os.PathLike[str]) -> Bag:
     """Open a ROS 2 bag; LogError for a ROS 1 bag, a directory without ``metadata.yaml``,
     a storage other than MCAP, or a file listed but absent."""
     path = Path(path)
     if path.is_dir():
+        input_path(path, "the bag", directory=True)
         files, custom = _directory_files(path)
         return Bag(path, files, custom)
     if not path.exists():
         msg = f"{path}: no such file or directory"
         raise LogError(msg)
-    with path.open("rb") as fh:
+    with open_input(path, "the bag") as fh:
         if fh.read(len(ROS1_MAGIC)) == ROS1_MAGIC:
             msg = (
                 f"{path} is a ROS 1 bag, which flylog does not read: convert it to a ROS 2 "
@@ -104,7 +116,7 @@ def open_bag(path: str | os.PathLike[str]) -> Bag:
 
 
 def _check_profile(path: Path) -> None:
-    with path.open("rb") as fh:
+    with open_input(path, "the bag's file") as fh:
         try:
             profile = SeekingReader(fh).get_header().profile
         except Exception as exc:
@@ -129,7 +141,7 @@ def _directory_files(path: Path) -> tuple[list[Path], dict[str, str]]:
         )
         raise LogError(msg)
     try:
-        doc = YAML(typ="safe").load(meta_path.read_text())
+        doc = YAML(typ="safe").load(read_input_text(meta_path, "the bag's metadata"))
         info = doc["rosbag2_bagfile_information"]
         storage = str(info.get("storage_identifier", ""))
         names = [str(p) for p in info["relative_file_paths"]]

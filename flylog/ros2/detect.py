@@ -8,6 +8,8 @@ from pathlib import Path
 
 from mcap.reader import SeekingReader
 
+from flylog.io.inputs import open_input
+
 ROS2_PROFILE = "ros2"
 ROS1_MAGIC = b"#ROSBAG"
 MCAP_MAGIC = b"\x89MCAP"
@@ -20,7 +22,7 @@ def is_bag(path: str | os.PathLike[str]) -> bool:
     if path.is_dir():
         return True
     try:
-        with path.open("rb") as fh:
+        with open_input(path, "the log") as fh:
             head = fh.read(len(ROS1_MAGIC))
             if head == ROS1_MAGIC:
                 return True

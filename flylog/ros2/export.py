@@ -31,11 +31,13 @@ from typing import Any
 import numpy as np
 from mcap_protobuf.decoder import DecoderFactory
 
-from flylog.errors import LogError
+from flylog.errors import LogError, OutputError
 from flylog.io import contract, open_log
+from flylog.io.atomic import part_stem
 from flylog.io.decode import image as rgb_of
 from flylog.io.decode import stamp_ns
 from flylog.ros2 import types
+from flylog.ros2.bagwriter import open_bag_writer
 from flylog.ros2.messages import TF_STATIC_QOS, Builder, ImageFormat
 from flylog.ros2.source import GOAL_KEY, SCENE_KEY
 
@@ -69,11 +71,9 @@ class _Bag:
     """A rosbags writer with connections made on first use."""
 
     def __init__(self, path: Path) -> None:
-        from rosbags.rosbag2 import StoragePlugin, Writer
-
         self.store = types.standard_typestore()
         self.build = Builder(self.store)
-        self.writer = Writer(path, version=9, storage_plugin=StoragePlugin.MCAP)
+        self.writer = open_bag_writer(path)
         self._connections: dict[str, Any] = {}
         self.count = 0
 
@@ -104,14 +104,16 @@ def export_ros2(
     directory ``output``; nothing is left behind on failure."""
     log, output = Path(log), Path(output)
     if output.exists():
-        msg = f"{output} exists: the ROS 2 export writes a new directory, choose another OUT"
-        raise LogError(msg)
+        msg = f"{output} exists: the ROS 2 export writes a new directory"
+        raise OutputError(msg, path=output)
     if not output.parent.is_dir():
         msg = f"cannot write {output}: directory {output.parent} does not exist"
         raise LogError(msg)
     reader = open_log(log)
     goal = reader.metadata().get(contract.SIMULATION_METADATA, {}).get("goal")
-    staging = Path(tempfile.mkdtemp(prefix=f".{output.name}.", suffix=".part", dir=output.parent))
+    # part_stem: a name of any legal length leaves room for mkdtemp's 8 characters
+    prefix = f"{part_stem(output)}."
+    staging = Path(tempfile.mkdtemp(prefix=prefix, suffix=".part", dir=output.parent))
     try:
         bag = _Bag(staging / output.name)
         if goal is not None:

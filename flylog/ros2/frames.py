@@ -1,5 +1,10 @@
 """Transforms from ``tf2_msgs/msg/TFMessage``: the static tree (``/tf_static``) looked up
-from base_link, quaternions, stamps and planar poses."""
+between any two of its frames, quaternions, stamps and planar poses.
+
+A robot's tree is not always rooted at base_link: a ZED-like driver hangs base_link below
+base_footprint (``base_footprint → base_link`` in /tf_static) and its sonars or cameras
+from either. A frame is placed in base_link through the tree's root, up from each frame and
+down again, whichever of the two is the other's ancestor (or neither)."""
 
 from __future__ import annotations
 
@@ -67,21 +72,34 @@ class StaticTree:
                 rotation_matrix(t.transform.rotation),
             )
 
-    def in_base(self, frame: str) -> tuple[np.ndarray, np.ndarray] | None:
-        """(position (3,), axes (3, 3)) of ``frame`` in base_link, or None if the static
-        tree does not connect them."""
-        frame = frame_name(frame)
+    def _in_root(self, frame: str) -> tuple[str, np.ndarray, np.ndarray] | None:
+        """(root, position, axes) of ``frame`` in the root of its tree (None for a cycle)."""
         position, axes = np.zeros(3), np.eye(3)
         seen: set[str] = set()
-        while frame != BASE_FRAME:
-            if frame in seen or frame not in self._parent:
+        while frame in self._parent:
+            if frame in seen:
                 return None
             seen.add(frame)
             parent, translation, rotation = self._parent[frame]
             position = rotation @ position + translation
             axes = rotation @ axes
             frame = parent
-        return position, axes
+        return frame, position, axes
+
+    def in_frame(self, frame: str, reference: str) -> tuple[np.ndarray, np.ndarray] | None:
+        """(position (3,), axes (3, 3)) of ``frame`` in ``reference``, or None if the static
+        tree does not connect them (in either direction)."""
+        found, ref = self._in_root(frame_name(frame)), self._in_root(frame_name(reference))
+        if found is None or ref is None or found[0] != ref[0]:
+            return None
+        _, position, axes = found
+        _, ref_position, ref_axes = ref
+        return ref_axes.T @ (position - ref_position), ref_axes.T @ axes
+
+    def in_base(self, frame: str) -> tuple[np.ndarray, np.ndarray] | None:
+        """(position (3,), axes (3, 3)) of ``frame`` in base_link, or None if the static
+        tree does not connect them."""
+        return self.in_frame(frame, BASE_FRAME)
 
     def mount(self, frame: str) -> tuple[float, float, float] | None:
         """(x, y, yaw) of ``frame`` in base_link, yaw the heading of its x axis."""

@@ -19,10 +19,10 @@ from flylog.io import contract
 from flylog.io.pairing import UnpairedImagesWarning
 from flylog.io.records import LogMessage
 from flylog.ros2 import types
-from flylog.ros2.bag import Bag, open_bag
+from flylog.ros2.bag import Bag, open_bag, static_tree
 from flylog.ros2.calibration import CameraModel, camera_model, rectifier, rig_from_calibration
 from flylog.ros2.config import BagOptions
-from flylog.ros2.frames import StaticTree, frame_name, stamp_ns
+from flylog.ros2.frames import frame_name, stamp_ns
 from flylog.ros2.images import UnsupportedImage, image_of
 from flylog.ros2.odometry import NoOdometryWarning, OdometryReader
 from flylog.ros2.pairing import StereoPairing
@@ -50,10 +50,7 @@ class BagSource:
             "left": self._first_camera(roles.left_info),
             "right": self._first_camera(roles.right_info),
         }
-        self.tree = StaticTree()
-        if types.TF_STATIC in self.bag.topics():
-            for m in self.bag.messages([types.TF_STATIC]):
-                self.tree.add(m.value)
+        self.tree = static_tree(self.bag)
         self.rig = self._rig()
         self._rectify = {side: rectifier(cam) for side, cam in self.cameras.items()}
         self.sonar_mounts = self._sonar_mounts()
@@ -115,15 +112,15 @@ class BagSource:
             mount = self.tree.mount(frame)
             if mount is None:
                 msg = (
-                    f"{self.where}: topic {topic}: /tf_static has no transform from base_link "
-                    f"to its frame '{frame}', so the sonar cannot be placed on the robot"
+                    f"{self.where}: topic {topic}: /tf_static does not connect base_link and "
+                    f"its frame '{frame}', so the sonar cannot be placed on the robot"
                 )
                 raise LogError(msg)
             mounts.append(mount)
         return np.array(mounts, dtype=float).reshape(-1, 3)
 
     def _odometry(self) -> OdometryReader:
-        return OdometryReader(self.where, from_tf=self.roles.odom_from_tf)
+        return OdometryReader(self.where, from_tf=self.roles.odom_from_tf, tree=self.tree)
 
     def _first_pose(self) -> Pose2D | None:
         """The first odometric pose, or None (with a warning) for a bag without odometry."""
@@ -136,8 +133,8 @@ class BagSource:
                         return reading.pose
         msg = (
             f"{self.where} has no odometry (no nav_msgs/msg/Odometry topic, no /tf odom → "
-            f"base_link): replaying without proprioception, the robot taken as standing at "
-            f"the origin"
+            f"base_link or to a frame /tf_static connects to base_link): replaying without "
+            f"proprioception, the robot taken as standing at the origin"
         )
         warnings.warn(msg, NoOdometryWarning, stacklevel=2)
         return None

@@ -34,7 +34,8 @@ class Roles:
 
 
 def parse_overrides(items: tuple[str, ...]) -> dict[str, str]:
-    """``role=topic`` items (``sonar=/r0,/r1``) → role → value; LogError for a bad item."""
+    """``role=topic`` items (``sonar=/r0,/r1``) → role → value; LogError for a bad item or
+    a role given twice (which of the two is meant cannot be told)."""
     out: dict[str, str] = {}
     for item in items:
         role, sep, value = item.partition("=")
@@ -42,6 +43,9 @@ def parse_overrides(items: tuple[str, ...]) -> dict[str, str]:
             msg = (
                 f"topic override {item!r}: expected ROLE=TOPIC with ROLE one of {', '.join(ROLES)}"
             )
+            raise LogError(msg, parameter="topics")
+        if role in out:
+            msg = f"topic override {item!r}: {role} is given twice ({role}={out[role]} too)"
             raise LogError(msg, parameter="topics")
         out[role] = value
     return out
@@ -88,6 +92,11 @@ def assign_roles(bag: Path, topics: Mapping[str, TopicInfo], overrides: Mapping[
                 f"(candidates: {_listing(seen, types.IMAGE_TYPES)}); choose one "
                 f"with the override {side}=TOPIC"
             )
+    if chosen.get("left") is not None and chosen.get("left") == chosen.get("right"):
+        problems.append(
+            f"left and right: both are {chosen['left']}; a stereo pair is two cameras' "
+            "topics (override the other with left=TOPIC or right=TOPIC)"
+        )
     infos: dict[str, str] = {}
     for side, topic in chosen.items():
         info = _info_topic(topic, seen)

@@ -1,7 +1,8 @@
 """Trajectories and ground truth of a bag, for ``flylog export --tum`` and ``flylog metrics
 --log``: the odometry (the one Odometry topic outside ``/truth/``, else ``/tf`` odom →
-base_link), the true pose (``/truth/odom``) and, for metrics, the scene that the exporter
-of a simulated log stores in custom_data."""
+base_link, directly or through a frame ``/tf_static`` connects to it), the true pose
+(``/truth/odom``) and, for metrics, the scene that the exporter of a simulated log stores
+in custom_data."""
 
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ from flylog.io.contract import TRUTH_PREFIX
 from flylog.metrics.trajectory import Trajectory, trajectory
 from flylog.metrics.truth import LogTruth
 from flylog.ros2 import types
-from flylog.ros2.bag import Bag, open_bag
+from flylog.ros2.bag import Bag, open_bag, static_tree
 from flylog.ros2.odometry import OdometryReader
 
 TRUTH_ODOM = "/truth/odom"
@@ -22,7 +23,8 @@ TRUTH_ODOM = "/truth/odom"
 
 def _poses(bag: Bag, topic: str, *, from_tf: bool) -> Trajectory:
     """A topic's planar poses at their log times."""
-    reader = OdometryReader(str(bag.path), from_tf=from_tf)
+    tree = static_tree(bag) if from_tf else None
+    reader = OdometryReader(str(bag.path), from_tf=from_tf, tree=tree)
     times, poses = [], []
     for m in bag.messages([topic]):
         for r in reader.readings(m.value):
@@ -79,6 +81,10 @@ def bag_truth(path: str | os.PathLike[str]) -> LogTruth:
         )
         raise LogError(msg)
     found = bag_trajectories(path)
+    for name, what in (("true", f"{TRUTH_ODOM} (the true pose)"), ("odom", "the odometry")):
+        if name not in found:
+            msg = f"{path}: {what} gives no pose that can be read; metrics needs it"
+            raise LogError(msg)
     scene = parse_scene(bag.custom[SCENE_KEY], f"{path}: custom_data {SCENE_KEY}")
     return LogTruth(
         path=Path(path), scene=scene, rig=source.rig, true=found["true"], odom=found["odom"]

@@ -22,6 +22,7 @@ import enum
 import itertools
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -432,3 +433,44 @@ def generate_text(family: Family, seed: int, config: GenerateConfig) -> str:
     text = world_text(world)
     parse_scene(text, source=f"{family.value} seed {seed}")
     return text
+
+
+def check_world_folder(folder: Path, count: int) -> None:
+    """OutputError if ``folder`` exists and is not a folder (checked before ``count``
+    worlds are generated for it, not after)."""
+    from flylog.errors import OutputError
+
+    if folder.exists() and not folder.is_dir():
+        msg = f"{folder} is not a folder, and {count} worlds need one"
+        raise OutputError(msg, path=folder)
+
+
+def write_worlds(texts: dict[Path, str], folder: Path) -> None:
+    """Write the scene files ``texts`` (path → text) into ``folder``, published together
+    (:class:`flylog.io.atomic.Batch`): a failure or a stop leaves every file that was there
+    as it was, and a folder made here is removed again. OutputError if ``folder`` exists
+    and is not a folder."""
+    import os
+
+    from flylog.io.atomic import Batch, publish, temporary_beside
+
+    folder = Path(folder)
+    check_world_folder(folder, len(texts))
+    made = not folder.exists()
+    if made:
+        folder.mkdir(parents=True)
+    try:
+        with Batch() as batch:
+            for path, text in texts.items():
+                fd, tmp = temporary_beside(path)
+                try:
+                    with os.fdopen(fd, "wb") as fh:
+                        fh.write(text.encode("utf-8"))
+                    publish(tmp, path, batch)
+                except BaseException:
+                    tmp.unlink(missing_ok=True)
+                    raise
+    except BaseException:
+        if made and not any(folder.iterdir()):
+            folder.rmdir()
+        raise

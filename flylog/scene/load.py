@@ -117,6 +117,7 @@ import numpy as np
 from flylog.config import from_mapping, problems_message, read_toml
 from flylog.errors import ConfigError
 from flylog.geometry import Pose2D
+from flylog.io.inputs import read_input_bytes
 from flylog.scene.footprints import Footprints, compile_footprints, distance_to_footprints
 from flylog.scene.spec import (
     ClutterConfig,
@@ -212,7 +213,7 @@ def load_scene(path: str | Path) -> Scene:
     """Load a scene file (see this module's docstring for the format)."""
     path = Path(path)
     read_toml(path)  # a missing, unreadable or malformed file: the messages of every config
-    return parse_scene(path.read_bytes().decode("utf-8"), source=str(path))
+    return parse_scene(read_input_bytes(path, "the scene file").decode("utf-8"), source=str(path))
 
 
 def distance_to_obstacles(scene: Scene, xy: np.ndarray) -> np.ndarray:

@@ -19,6 +19,7 @@ from typing import Any
 
 import flylog
 from flylog.config import to_mapping
+from flylog.io.inputs import open_input, read_input_text
 from flylog.metrics.config import MetricsConfig
 from flylog.replay.config import ReplayConfig
 from flylog.sweep.spec import Drive, SimulateInput, SweepSpec
@@ -37,7 +38,7 @@ def digest(value: Any) -> str:
 def file_digest(path: Path) -> str:
     """SHA-256 of a file's bytes."""
     h = hashlib.sha256()
-    with Path(path).open("rb") as fh:
+    with open_input(path, "an input of the sweep") as fh:
         while block := fh.read(_READ_BLOCK):
             h.update(block)
     return h.hexdigest()
@@ -104,7 +105,7 @@ class Cell:
 
 def _simulation_key(entry: SimulateInput, seed: int) -> dict[str, Any]:
     return {
-        "scene": Path(entry.scene).read_text(encoding="utf-8"),
+        "scene": read_input_text(entry.scene, "the scene file"),
         "seed": seed,
         "duration": entry.duration,
         "resolution": entry.resolution,

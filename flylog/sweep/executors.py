@@ -12,7 +12,9 @@ and its output directory at the same paths (shared storage, e.g. NFS).
 
 from __future__ import annotations
 
+import contextlib
 import enum
+import gc
 import os
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any, Protocol, TypeVar
@@ -64,6 +66,8 @@ class Executor(Protocol):
 
     def close(self) -> None: ...
 
+    def abort(self) -> None: ...
+
 
 def _warmed_call(fn: Callable[[A], R], item: A, numba_threads: int) -> R:
     start_worker(numba_threads)
@@ -72,6 +76,45 @@ def _warmed_call(fn: Callable[[A], R], item: A, numba_threads: int) -> R:
 
 def _plain_call(fn: Callable[[A], R], item: A, numba_threads: int) -> R:
     return fn(item)
+
+
+def _pool_call(fn: Callable[[A], R], item: A, numba_threads: int) -> R:
+    from flylog.process import stoppable_call
+
+    return stoppable_call(fn, item)
+
+
+def _start_pool_worker(numba_threads: int, parent: int, warm: bool) -> None:
+    """A pool worker's start: it ends with its parent (a sweep killed with SIGKILL leaves
+    no worker behind), a stop signal ends it cleanly, its warnings are one line each, and
+    (``warm``) :func:`~flylog.sweep.warm.start_worker`."""
+    from flylog.process import end_with_parent, one_line_warnings, stop_on_signals, stoppable_call
+
+    stop_on_signals()
+    end_with_parent(parent)
+    one_line_warnings()
+    if warm:
+        stoppable_call(start_worker, numba_threads)
+
+
+def _resource_tracker_ignoring_hangup() -> None:
+    """Start multiprocessing's resource tracker (the helper process that frees the pool's
+    semaphores) with SIGHUP ignored, as it ignores SIGINT and SIGTERM itself: a closed
+    terminal signals the whole process group, and a tracker ended by SIGHUP makes the
+    pool's processes print its tracebacks on their way out. An ignored signal stays
+    ignored across exec; the tracker ends when the last process using it ends."""
+    import signal
+    import threading
+    from multiprocessing import resource_tracker
+
+    if not hasattr(signal, "SIGHUP") or threading.current_thread() is not threading.main_thread():
+        resource_tracker.ensure_running()
+        return
+    previous = signal.signal(signal.SIGHUP, signal.SIG_IGN)
+    try:
+        resource_tracker.ensure_running()
+    finally:
+        signal.signal(signal.SIGHUP, previous)
 
 
 class ProcessPool:
@@ -91,25 +134,23 @@ class ProcessPool:
         from concurrent.futures import ProcessPoolExecutor
 
         context = multiprocessing.get_context("spawn")
-        if not self._warm:
-            return ProcessPoolExecutor(max_workers=self.workers, mp_context=context)
+        _resource_tracker_ignoring_hangup()
         return ProcessPoolExecutor(
             max_workers=self.workers,
             mp_context=context,
-            initializer=start_worker,
-            initargs=(self._threads,),
+            initializer=_start_pool_worker,
+            initargs=(self._threads, os.getpid(), self._warm),
         )
 
     def _submit(self, fn: Callable[[A], R], item: A) -> Any:
         from concurrent.futures.process import BrokenProcessPool
 
-        call = _warmed_call if self._warm else _plain_call
         try:
-            return self._pool.submit(call, fn, item, self._threads)
+            return self._pool.submit(_pool_call, fn, item, self._threads)
         except BrokenProcessPool:  # a worker died in an earlier map: start afresh
             self._pool.shutdown(wait=True)
             self._pool = self._new_pool()
-            return self._pool.submit(call, fn, item, self._threads)
+            return self._pool.submit(_pool_call, fn, item, self._threads)
 
     @property
     def running(self) -> int:
@@ -138,7 +179,28 @@ class ProcessPool:
             self._pending = 0
 
     def close(self) -> None:
-        self._pool.shutdown(wait=True, cancel_futures=True)
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+
+    def abort(self) -> None:
+        """Cancel the queued calls and stop the running ones: each worker gets SIGTERM,
+        removes its partial outputs and ends (:func:`flylog.process.stop_on_signals`)."""
+        import signal
+
+        processes = dict(getattr(self._pool, "_processes", None) or {})
+        self._pool.shutdown(wait=False, cancel_futures=True)
+        for process in processes.values():
+            if process.is_alive():
+                with contextlib.suppress(ProcessLookupError):
+                    os.kill(process.pid, signal.SIGTERM)
+        for process in processes.values():
+            process.join()
+        self._pool.shutdown(wait=True)
+        # Its queues' semaphores are released when collected: now, not at the exit, where
+        # multiprocessing's resource tracker reports them as leaked (the exception that
+        # stopped the sweep keeps its frames, and this pool, alive until then).
+        self._pool = None
+        gc.collect()
 
 
 class RayCluster:
@@ -200,6 +262,22 @@ class RayCluster:
 
     def close(self) -> None:
         self._ray.shutdown()
+
+    def abort(self) -> None:
+        self._ray.shutdown()
+
+
+def check_backend(backend: Backend, address: str | None) -> None:
+    """ConfigError for a backend that cannot run here, before a sweep writes anything: Ray
+    not installed, a cluster address without the Ray backend."""
+    import importlib.util
+
+    if backend is not Backend.RAY and address is not None:
+        msg = "a cluster address needs the Ray backend (--backend ray)"
+        raise ConfigError(msg, parameter="address")
+    if backend is Backend.RAY and importlib.util.find_spec("ray") is None:
+        msg = "--backend ray needs Ray: pip install 'flylog[ray]'"
+        raise ConfigError(msg, parameter="backend")
 
 
 def make_executor(backend: Backend, workers: int, *, address: str | None = None) -> Executor:

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from flylog.errors import LogError
+from flylog.io.inputs import input_path
 from flylog.io.tables import Column
 from flylog.metrics.tables import SUMMARY_COLUMNS, write_table
 from flylog.replay.config import ReplayConfig
@@ -44,6 +45,19 @@ TAIL_COLUMNS = (
         "float64",
         "s",
         "CPU time of the worker process over the cell, all its threads",
+    ),
+    Column(
+        "input_messages_lost",
+        "int64",
+        "",
+        "messages of the cell's input lost to damage, as its reading warned (0: none)",
+    ),
+    Column(
+        "input_warnings",
+        "string",
+        "",
+        "the warnings of the cell's run, one a line (empty: none): a damaged, truncated "
+        "or incomplete input",
     ),
     Column("status", "string", "", "ok, or failed (the sweep went on)"),
     Column("error", "string", "", "why the cell failed (null if ok)"),
@@ -105,6 +119,8 @@ def cell_row(cell: Cell, outcome: Mapping[str, Any], out_dir: Path) -> dict[str,
     row.update(
         cell_wall_s=outcome.get("cell_wall_s"),
         cell_cpu_s=outcome.get("cell_cpu_s"),
+        input_messages_lost=int(outcome.get("input_messages_lost") or 0),
+        input_warnings=outcome.get("input_warnings") or "",
         status=outcome.get("status"),
         error=outcome.get("error"),
         run_dir=str(cell.directory.relative_to(out_dir)),
@@ -134,16 +150,19 @@ def results_path(path: Path) -> Path:
 
 
 def is_results(path: Path) -> bool:
-    """Whether ``path`` (a file or a sweep's directory) is a sweep's results table."""
+    """Whether ``path`` (a file or a sweep's directory) is a sweep's results table;
+    LogError for a Parquet file that cannot be read."""
     found = results_path(path)
     if not found.is_file() or found.suffix != ".parquet":
         return False
+    import pyarrow as pa
     import pyarrow.parquet as pq
 
     try:
-        meta = pq.read_schema(found).metadata or {}
-    except OSError:
-        return False
+        meta = pq.read_schema(input_path(found, "the table")).metadata or {}
+    except (pa.ArrowException, OSError) as exc:  # a cut or damaged file
+        msg = f"{found}: not a readable Parquet file ({exc}); it is damaged or cut short"
+        raise LogError(msg) from None
     return METADATA_KEY.encode() in meta
 
 
@@ -154,7 +173,7 @@ def read_results(path: Path) -> tuple[list[str], list[dict[str, Any]]]:
 
     found = results_path(path)
     try:
-        table = pq.read_table(found)
+        table = pq.read_table(input_path(found, "the sweep results"))
     except (pa.ArrowInvalid, OSError) as exc:
         msg = f"{found}: not a readable sweep results table ({exc})"
         raise LogError(msg) from None

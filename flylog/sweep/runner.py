@@ -11,7 +11,15 @@ from typing import Any
 
 from flylog.errors import LogError
 from flylog.sweep.cells import Cell, SimulatedInput, simulated_inputs, sweep_cells
-from flylog.sweep.executors import Backend, Executor, default_workers, make_executor
+from flylog.sweep.executors import (
+    Backend,
+    Executor,
+    check_backend,
+    default_workers,
+    make_executor,
+)
+from flylog.sweep.limits import SweepLimits, check_sweep
+from flylog.sweep.lock import sweep_lock
 from flylog.sweep.order import longest_first
 from flylog.sweep.results import RESULTS_NAME, cell_row, write_results
 from flylog.sweep.spec import SweepSpec, load_spec
@@ -32,6 +40,7 @@ class SweepOptions:
     workers: int | None = None  # None: the cores this process may use
     address: str | None = None  # Ray: a running cluster's address
     force: bool = False  # run every cell (and simulate every input) again
+    limits: SweepLimits = SweepLimits()  # checked before anything is planned or written
 
 
 @dataclass(frozen=True)
@@ -93,6 +102,12 @@ class _Run:
         if self.executor is not None:
             self.executor.close()
 
+    def abort(self) -> None:
+        """Stop at once: queued calls cancelled, running ones stopped (their workers remove
+        their partial outputs)."""
+        if self.executor is not None:
+            self.executor.abort()
+
 
 def _simulate_inputs(items: list[SimulatedInput], run: _Run, force: bool) -> dict[str, str]:
     """Simulate the inputs that need it; input label → error message of those that failed."""
@@ -132,7 +147,20 @@ def run_sweep(
     if out_dir.exists() and not out_dir.is_dir():
         msg = f"{out_dir}: not a directory (give -o a directory for the sweep's outputs)"
         raise LogError(msg)
+    check_backend(options.backend, options.address)
+    check_sweep(spec, options.limits)
     out_dir.mkdir(parents=True, exist_ok=True)
+    with sweep_lock(out_dir):
+        return _run_sweep(spec, out_dir, options, on_progress, t0)
+
+
+def _run_sweep(
+    spec: SweepSpec,
+    out_dir: Path,
+    options: SweepOptions,
+    on_progress: Callable[[Progress], None] | None,
+    t0: float,
+) -> SweepResult:
     simulated = simulated_inputs(spec, out_dir)
     cells = sweep_cells(spec, out_dir, simulated)
     run = _Run(options, on_progress)
@@ -163,6 +191,9 @@ def run_sweep(
                 rows[cell.index] = cell_row(cell, outcome, out_dir)
                 failed += outcome["status"] != STATUS_OK
                 run.report("cells", len(rows), failed, len(cells))
+    except BaseException:  # Ctrl-C, a stop signal: stop now, not when every cell is done
+        run.abort()
+        raise
     finally:
         run.close()
     ordered = [rows[c.index] for c in cells]

@@ -7,6 +7,7 @@ describes the format; ``fixtures/sweeps/example.toml`` is an example.
 
 from __future__ import annotations
 
+import dataclasses
 import enum
 import glob
 import itertools
@@ -16,7 +17,7 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from flylog.config import from_mapping, read_toml, replace_dotted
-from flylog.errors import ConfigError
+from flylog.errors import ConfigError, LimitError
 from flylog.metrics.config import MetricsConfig
 from flylog.replay.config import ReplayConfig, load_replay_config
 from flylog.sweep.overrides import convert_value, flatten
@@ -101,16 +102,23 @@ class _Problems:
             return None
 
 
+# The largest seed: results.parquet holds seeds as int64 (numpy takes larger ones).
+MAX_SEED = 2**63 - 1
+
+
+def _is_seed(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and 0 <= value <= MAX_SEED
+
+
 def _seeds(value: Any, where: str, problems: _Problems) -> tuple[int, ...]:
     """A list of seeds, or N for 0 … N−1."""
-    if isinstance(value, int) and not isinstance(value, bool) and value >= 1:
+    if _is_seed(value) and value >= 1:
         return tuple(range(value))
-    ok = isinstance(value, list) and len(value) > 0
-    ok = ok and all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in value)
+    ok = isinstance(value, list) and len(value) > 0 and all(_is_seed(s) for s in value)
     if not ok or len(set(value)) != len(value):
         problems.add(
             f"{problems.source}: field '{where}': expected a list of distinct seeds "
-            f"(integers ≥ 0) or a count N ≥ 1 for 0 … N−1, got {value!r}"
+            f"(integers from 0 to 2**63 - 1) or a count N ≥ 1 for 0 … N−1, got {value!r}"
         )
         return ()
     return tuple(value)
@@ -131,6 +139,28 @@ def _logs(value: Any, here: Path, problems: _Problems) -> tuple[Path, ...]:
             )
         found += [Path(m).resolve() for m in matches if Path(m).resolve() not in found]
     return tuple(found)
+
+
+def _check_simulation_size(
+    scene: Path, duration: Any, res: Any, frame_rate: Any, where: str, problems: _Problems
+) -> None:
+    """A simulation over the output or memory limits of ``flylog simulate`` is the spec's
+    mistake (a ``duration = 1e9``), found before any cell runs."""
+    from flylog.budget import DEFAULT_LIMITS
+    from flylog.scene.load import load_scene
+    from flylog.sim.run import SimulationOptions, simulation_budget
+
+    options = SimulationOptions(
+        duration=None if duration is None else float(duration),
+        resolution=None if res is None else (res[0], res[1]),
+        frame_rate=None if frame_rate is None else float(frame_rate),
+    )
+    try:
+        simulation_budget(load_scene(scene), options).check(DEFAULT_LIMITS)
+    except LimitError as exc:
+        problems.add(f"{problems.source}: field '{where}': {exc}")
+    except ConfigError:  # the scene's own mistakes are reported where it is loaded
+        pass
 
 
 def _simulate(entry: Any, i: int, here: Path, problems: _Problems) -> SimulateInput | None:
@@ -171,6 +201,9 @@ def _simulate(entry: Any, i: int, here: Path, problems: _Problems) -> SimulateIn
             f"{src}: field '{where}.resolution': expected [width, height], at least 16 px "
             f"each, got {res!r}"
         )
+    if len(problems.lines) > n:
+        return None
+    _check_simulation_size(here / str(scene), duration, res, frame_rate, where, problems)
     if len(problems.lines) > n:
         return None
     return SimulateInput(
@@ -244,7 +277,7 @@ def parse_spec(data: Mapping[str, Any], source: Path) -> SweepSpec:
         problems.add(f"{source}: field 'simulate': expected tables ([[simulate]])")
         entries = []
     simulate = [_simulate(e, i, here, problems) for i, e in enumerate(entries)]
-    if "logs" not in data and not entries:
+    if not data.get("logs") and not entries:
         problems.add(f"{source}: no inputs: give `logs = [...]` and/or [[simulate]] entries")
     seeds = _seeds(data.get("seeds", [0]), "seeds", problems)
     before = len(problems.lines)
@@ -281,15 +314,66 @@ def parse_spec(data: Mapping[str, Any], source: Path) -> SweepSpec:
         metrics=metrics,
     )
     if len(problems.lines) == before:  # cross-field checks of every effective configuration
-        for variant, point in itertools.product(spec.variants, spec.grid_points()):
-            try:
-                spec.config(variant, point, 0)
-            except (ValueError, ConfigError) as exc:
-                shown = ", ".join(f"{k} = {v!r}" for k, v in point) or "no grid key"
-                problems.add(f"{source}: variant {variant.name!r} with {shown}: {exc}")
+        problems.lines += _combination_problems(spec, str(source))
     if problems.lines:
         raise ConfigError("\n".join(dict.fromkeys(problems.lines)))
     return spec
+
+
+def _combination_problems(spec: SweepSpec, source: str) -> list[str]:
+    out = []
+    for variant, point in itertools.product(spec.variants, spec.grid_points()):
+        try:
+            spec.config(variant, point, 0)
+        except (ValueError, ConfigError) as exc:
+            shown = ", ".join(f"{k} = {v!r}" for k, v in point) or "no grid key"
+            out.append(f"{source}: variant {variant.name!r} with {shown}: {exc}")
+    return out
+
+
+def parse_seeds(text: str, *, source: str = "--seeds") -> tuple[int, ...]:
+    """Engine seeds from a command line: ``N`` (0 … N−1, as the spec's count), ``A-B``
+    (A … B), or a comma-separated list of seeds and ranges (``0,3,10-14``)."""
+    text = text.strip()
+    seeds: list[int] = []
+    try:
+        if text.isdigit():
+            count = int(text)
+            if count < 1:
+                raise ValueError(text)
+            return tuple(range(count))
+        for part in text.split(","):
+            first, dash, last = part.strip().partition("-")
+            lo, hi = int(first), int(last) if dash else int(first)
+            if lo < 0 or hi < lo:
+                raise ValueError(part)
+            seeds += range(lo, hi + 1)
+    except ValueError:
+        seeds = []
+    if not seeds or len(set(seeds)) != len(seeds):
+        msg = (
+            f"{source}: expected N (seeds 0 … N−1), A-B, or a list such as 0,3,10-14 of "
+            f"distinct seeds ≥ 0, got {text!r}"
+        )
+        raise ConfigError(msg, parameter="seeds")
+    return tuple(seeds)
+
+
+def with_overrides(
+    spec: SweepSpec, *, seeds: tuple[int, ...] | None = None, config: Path | None = None
+) -> SweepSpec:
+    """``spec`` with its engine seeds and its base replay configuration replaced (one side
+    of an A/B comparison: the same spec, each side's seeds or configuration)."""
+    changes: dict[str, Any] = {}
+    if seeds is not None:
+        changes["seeds"] = tuple(seeds)
+    if config is not None:
+        changes["base"] = load_replay_config(Path(config))
+    out = dataclasses.replace(spec, **changes)
+    problems = _combination_problems(out, f"{spec.source} with --config {config}")
+    if problems:
+        raise ConfigError("\n".join(problems))
+    return out
 
 
 def load_spec(path: Path) -> SweepSpec:

@@ -10,6 +10,7 @@ import json
 import os
 import time
 import traceback
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -104,10 +105,34 @@ def _metrics_row(cell: Cell, log: Path) -> dict[str, Any]:
     return dict(result.summary)
 
 
+def input_damage(caught: list[warnings.WarningMessage]) -> dict[str, Any]:
+    """The row's account of what a cell's reading warned about: the messages its damaged
+    input lost (``input_messages_lost``) and every warning's line, in order, once each
+    (``input_warnings``)."""
+    from flylog.io.scan import messages_lost
+
+    lines = dict.fromkeys(str(w.message).strip() for w in caught)
+    lost, _ = messages_lost(w.message for w in caught if isinstance(w.message, Warning))
+    return {"input_messages_lost": lost, "input_warnings": "\n".join(lines)}
+
+
 def run_cell(cell: Cell) -> dict[str, Any]:
     """Run ``cell`` into its directory; the metrics of its row, its status and error
-    message, its wall time (``cell_wall_s``) and its worker process's CPU time over it
-    (``cell_cpu_s``, every thread: engine, planner, reading)."""
+    message, its wall time (``cell_wall_s``), its worker process's CPU time over it
+    (``cell_cpu_s``, every thread: engine, planner, reading), and what the reading of its
+    input warned about (:func:`input_damage`; the warnings are shown as well)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")  # each line once is input_damage's to keep
+        row = _run_cell(cell)
+    for w in caught:
+        warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+    row.update(input_damage(caught))
+    if row["status"] == STATUS_OK:
+        write_json(cell.record, {"fingerprint": cell.fingerprint, "row": _jsonable(row)})
+    return row
+
+
+def _run_cell(cell: Cell) -> dict[str, Any]:
     t0, cpu0 = time.perf_counter(), time.process_time()
     try:
         cell.directory.mkdir(parents=True, exist_ok=True)
@@ -128,9 +153,7 @@ def run_cell(cell: Cell) -> dict[str, Any]:
                 "cell_wall_s": time.perf_counter() - t0,
                 "cell_cpu_s": time.process_time() - cpu0}  # fmt: skip
     timing = {"cell_wall_s": time.perf_counter() - t0, "cell_cpu_s": time.process_time() - cpu0}
-    row = {**summary, "status": STATUS_OK, "error": None, **timing}
-    write_json(cell.record, {"fingerprint": cell.fingerprint, "row": _jsonable(row)})
-    return row
+    return {**summary, "status": STATUS_OK, "error": None, **timing}
 
 
 def _jsonable(row: dict[str, Any]) -> dict[str, Any]:

@@ -220,7 +220,9 @@ def _rig_kernel_figures(pair: StereoPair, rig: StereoRig) -> list[dict]:
     9 rounds; one thread: the median of 30 paired ratios of this thread's CPU time."""
     import dataclasses
 
-    from flylog.fly.fitness import fitness_into
+    from flylog.fly.config import Gradient
+    from flylog.fly.fitness import fitness_into, images_of
+    from flylog.fly.measures import ZSSD
     from flylog.geometry.kernels import LEVEL
     from tests.benchmarks.level_fitness import level_constants, level_fitness
 
@@ -250,8 +252,9 @@ def _rig_kernel_figures(pair: StereoPair, rig: StereoRig) -> list[dict]:
             level_fitness(*rows, points, index[:count], level_constants(rig), outs[name],
                           parallel=parallel)  # fmt: skip
         else:
-            fitness_into(*rows, points, index[:count], k, 7, 1.0, 1, outs[name],
-                         parallel_min=0 if parallel else n + 1)  # fmt: skip
+            im = images_of(pair.left, pair.right, rig, 7, 1.0, gradient=Gradient.NORM)
+            parallel_min = 0 if parallel else n + 1
+            fitness_into(im._replace(k=k), ZSSD, points, index[:count], outs[name], parallel_min)
 
     figures = []
     for parallel, count, repeats in ((True, n, 9), (False, 200_000, 31)):
@@ -378,7 +381,7 @@ def _generation_figures(pair, depth, reading, rig) -> list[dict]:
 def _captured_bundles(engine: FlyEngine) -> tuple:
     """The arguments of the engine's next :func:`~flylog.fly.generation.generations_kernel`
     call (one generation is run to get them)."""
-    import flylog.fly.engine as engine_module
+    import flylog.fly.numba_backend as engine_module
 
     real, captured = engine_module.generations_kernel, []
 
@@ -413,7 +416,7 @@ def _stage_figures(pair, reading, rig) -> list[dict]:
     engine.set_images(pair)
     engine.set_sonar(reading)
     engine.steps(20)
-    _, _, rng, im, a, b, _, fu, se, br, _, sc = _captured_bundles(engine)
+    _, _, rng, im, measure, a, b, _, fu, se, br, _, sc = _captured_bundles(engine)
     noop = numba.njit(lambda rng, x: 0)
     noop(rng, a.xyz)
     times: dict[str, list[float]] = {}
@@ -433,28 +436,21 @@ def _stage_figures(pair, reading, rig) -> list[dict]:
         what = "all 5000 stale flies (new pair)" if m == n else "stale flies (none)"
         index = timed("row order, stale", rows_order_into, a.xyz, sc.stale_index[:m], im.k,
                       height, sc.row_scratch)  # fmt: skip
-        timed(f"fitness, {what}", score_into, im.lrows, im.rrows, im.channels, a.xyz, index,
-              im.k, im.window, im.guard, im.stamp, a.vision, a.stale, a.stamp_ns, fu.sonars,
-              fu.cos_half_cone, fu.tolerance, fu.bonus, index, a.fitness, im.measure)  # fmt: skip
+        timed(f"fitness, {what}", score_into, im, measure, fu, a, index, index)
         timed("neighbour counts (grid)", fly_neighbour_counts_into, a.xyz, im.k, a.fitness,
               se.radius, se.grid, se.ints, se.uv, se.counts)  # fmt: skip
         score = se.work[:n]
         timed("sharing (median)", shared_fitness_into, a.fitness, se.counts, se.coefficient,
               se.work[n:], score)  # fmt: skip
-        kept = timed("selection cut and gather", _cut_and_gather, score, se.survivors, se.work,
-                     a.fitness, *a[:1], a.vision, a.stale, a.stamp_ns, a.age, *b)  # fmt: skip
+        cut = _cut_and_gather
+        kept = timed("selection cut and gather", cut, score, se.survivors, se.work, a, b)
         at = n - br.n_immigrants
         timed("breeding: children and immigrants", immigrants_and_children_into, rng,
-              b.xyz[:kept], br.rate2, br.rate3, br.sigma_px, br.sigma_d, br.newcomer_k, br.arcs,
-              br.half_cone, fu.tolerance, br.arc_k, br.tries, br.n_sonar, b.xyz[kept:at],
-              b.xyz[at:])  # fmt: skip
+              b.xyz[:kept], br, fu.tolerance, b.xyz[kept:at], b.xyz[at:])  # fmt: skip
         timed("Generator typing (no-op kernel)", noop, rng, b.xyz)
         order = timed("row order, newcomers", rows_order_into, b.xyz, sc.newcomers, im.k,
                       height, sc.row_scratch)  # fmt: skip
-        timed("fitness, 2500 newcomers", score_into, im.lrows, im.rrows, im.channels, b.xyz,
-              order, im.k, im.window, im.guard, im.stamp, b.vision, b.stale, b.stamp_ns,
-              fu.sonars, fu.cos_half_cone, fu.tolerance, fu.bonus, order, b.fitness,
-              im.measure)  # fmt: skip
+        timed("fitness, 2500 newcomers", score_into, im, measure, fu, b, order, order)
         a, b = b, a
     typing = float(np.median(times.pop("Generator typing (no-op kernel)")[40:]))
     figures = []
@@ -469,8 +465,8 @@ def _stage_figures(pair, reading, rig) -> list[dict]:
 def _bundle_figures(pair, reading, rig) -> list[dict]:
     """The cost of passing the generation's inputs as bundles: a call of
     :func:`~flylog.fly.generation.generations_kernel` that runs no generation (its dispatch:
-    typing the seven bundles and the Generator) against a no-op kernel given the same 61
-    values one by one, alternated in the same run; and both against a 10-generation call."""
+    typing the seven bundles, the measure and the Generator) against a no-op kernel given the
+    same values one by one, alternated in the same run; and both against a 10-generation call."""
     import numba
 
     engine = FlyEngine(EngineConfig(flies=5000), rig, np.random.default_rng(0))

@@ -10,16 +10,15 @@ import math
 import numba
 import numpy as np
 
-from flylog.fly.fitness import INVALID_FITNESS, _prefetch_window, _sobel_norm2, _zssd_lanes
-from flylog.fly.fitness_vector import (
-    HALF,
-    LANES,
-    MAX_CHANNELS,
-    lane_masks,
-    window_terms_16,
-    window_terms_32,
-)
+from flylog.fly.fitness import INVALID_FITNESS, _prefetch_window
+from flylog.fly.fitness_terms import sobel_norm2 as _sobel_norm2
+from flylog.fly.fitness_vector import HALF, LANES, MAX_CHANNELS, lane_masks
+from flylog.fly.measures import DIFFERENCE, zssd_lanes
 from flylog.geometry import StereoRig
+
+assert DIFFERENCE.vector is not None
+window_terms_16 = DIFFERENCE.vector.half
+window_terms_32 = DIFFERENCE.vector.wide
 
 # Flies go in blocks, in three passes: project all (and prefetch their window rows), then the
 # integer window terms, then the float fitness. Each pass's iterations are independent, so the
@@ -108,7 +107,8 @@ def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, gua
                 totals[t] = n * sq - squares
                 grads[t] = grad2
             else:
-                totals[t] = _zssd_lanes(lflat, rflat, bl, br, stride, window, channels, scratch)
+                sq, squares = zssd_lanes(lflat, rflat, bl, br, stride, window, channels, scratch)
+                totals[t] = n * sq - squares
                 centre = bl + h * stride + h * channels
                 grads[t] = _sobel_norm2(lflat, centre, stride, channels, gy_weight)
         for t in range(m):  # no branch: vectorised (an invalid fly's terms are stale)

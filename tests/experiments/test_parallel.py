@@ -4,6 +4,7 @@ per-seed functions called directly in this process."""
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 from pathlib import Path
@@ -73,9 +74,18 @@ def test_rows_are_those_of_the_per_seed_functions(written: dict[str, Path], tmp_
         assert [_json_numbers(r) for r in direct] == saved["runs"]
 
 
-def test_progress_counts_the_cells_of_every_experiment(written: dict[str, Path]) -> None:
-    cells = 2 * TINY.seeds  # one per seed of each experiment
-    assert [(float(d), float(cells)) for d in range(cells + 1)] == PROGRESS
+def test_progress_counts_the_expected_work_of_every_cell(
+    written: dict[str, Path], tmp_path: Path
+) -> None:
+    """Each finished cell adds its expected work (log seconds), so the bar's ETA weighs a
+    long cell as long; the total is every experiment's cells' work."""
+    works = [c.work for name in NAMES for c in experiment_plan(name, tmp_path, TINY).cells]
+    assert len(PROGRESS) == 1 + len(works) == 1 + 2 * TINY.seeds
+    assert {t for _, t in PROGRESS} == {sum(works)}
+    done = [d for d, _ in PROGRESS]
+    assert done[0] == 0.0 and done == sorted(done) and done[-1] == pytest.approx(sum(works))
+    steps = sorted(round(b - a, 9) for a, b in itertools.pairwise(done))
+    assert steps == sorted(round(w, 9) for w in works)
 
 
 def test_cells_go_out_longest_first_ties_in_order() -> None:

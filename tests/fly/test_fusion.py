@@ -219,8 +219,10 @@ def test_move_in_place_equals_moved_bit_for_bit():
 
 @pytest.mark.parametrize("with_sonar", [False, True])
 def test_score_kernel_equals_fitness_then_fusion(with_sonar):
-    from flylog.fly.fitness import INVALID_FITNESS, fitness_numpy, rig_constants
+    from flylog.fly.bundles import Flies, Fusion
+    from flylog.fly.fitness import INVALID_FITNESS, fitness_numpy, images_of
     from flylog.fly.fusion import score_into
+    from flylog.fly.measures import ZSSD
     from flylog.fly.operators import random_flies
 
     rng = np.random.default_rng(4)
@@ -247,10 +249,10 @@ def test_score_kernel_equals_fitness_then_fusion(with_sonar):
         assert (expected != expected_vision).sum() > 3  # some flies confirmed
     else:
         expected = expected_vision
-    score_into(
-        left.reshape(48, 64 * 3), right.reshape(48, 64 * 3), 3, xyz, index, rig_constants(rig),
-        7, 1.0, 42, vision, stale, stamp, sonars, math.cos(r.half_cone), 0.1, 0.5, fuse, fitness,
-    )  # fmt: skip
+    im = images_of(left, right, rig, 7, 1.0, stamp_ns=42)
+    fu = Fusion(sonars=sonars, cos_half_cone=math.cos(r.half_cone), tolerance=0.1, bonus=0.5)
+    age = np.zeros(400, dtype=np.int32)
+    score_into(im, ZSSD, fu, Flies(xyz, fitness, vision, stale, stamp, age), index, fuse)
     np.testing.assert_array_equal(vision, expected_vision)
     np.testing.assert_array_equal(fitness, expected)
     assert not stale[index].any() and (stamp[index] == 42).all()

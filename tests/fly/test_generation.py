@@ -5,7 +5,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-import flylog.fly.engine as engine_module
+import flylog.fly.numba_backend as engine_module
 from flylog.fly import Backend, EngineConfig, FlyEngine
 from flylog.fly.fitness import rig_constants
 from flylog.fly.generation import rows_order_into

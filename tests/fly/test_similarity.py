@@ -7,14 +7,9 @@ import pytest
 
 from flylog.fly import fitness_vector
 from flylog.fly.config import Gradient, Similarity
-from flylog.fly.fitness import INVALID_FITNESS, NCC_SCALE, fitness_numba, fitness_numpy
-from flylog.fly.fitness_terms import (
-    FRACTION,
-    ncc_lanes,
-    sobel_norm2,
-    windows_into,
-    zssd_lanes,
-)
+from flylog.fly.fitness import INVALID_FITNESS, fitness_numba, fitness_numpy
+from flylog.fly.fitness_terms import FRACTION, sobel_norm2, windows_into
+from flylog.fly.measures import CORRELATION, DIFFERENCE, NCC_SCALE, measure_of
 from tests.fly.plain_patches import SMALL, plain_fitness, random_case
 
 ZNCC = Similarity.ZNCC
@@ -157,18 +152,29 @@ PAIR_SUMS = [fitness_vector.pair_sums_generic] + (
 )
 
 
+# The vector intrinsics' factory of each kind of window sums that has vector forms.
+FACTORIES = {
+    DIFFERENCE: fitness_vector.window_terms_intrinsic,
+    CORRELATION: fitness_vector.ncc_terms_intrinsic,
+}
+VECTOR_MEASURES = [s for s in Similarity if measure_of(s).sums.vector is not None]
+
+
+def test_every_measure_with_vector_sums_is_checked_below():
+    assert {measure_of(s).sums for s in VECTOR_MEASURES} <= set(FACTORIES)
+
+
 @pytest.mark.parametrize("pair_sums", PAIR_SUMS, ids=lambda f: f.__name__)
-@pytest.mark.parametrize("similarity", list(Similarity))
+@pytest.mark.parametrize("similarity", VECTOR_MEASURES)
 @pytest.mark.parametrize(("halves", "window", "channels"), [(1, 5, 3), (2, 7, 3), (2, 31, 1)])
 def test_subpixel_vector_terms_equal_the_copied_windows_for_every_weight(
     pair_sums, similarity, halves, window, channels
 ):
     # The interpolating intrinsics against the lane loop on windows copied by windows_into,
     # for every weight q, on random bytes and on right rows of 0 and 255 (the largest |b − a|).
-    factory = fitness_vector.window_terms_intrinsic
-    if similarity is ZNCC:
-        factory = fitness_vector.ncc_terms_intrinsic
-    terms = factory(pair_sums, halves, subpixel=True)
+    sums = measure_of(similarity).sums
+    terms = FACTORIES[sums](pair_sums, halves, subpixel=True)
+    lanes = sums.lanes
 
     @numba.njit
     def vector(left, right, bl, br, stride, window, channels, q):
@@ -180,7 +186,6 @@ def test_subpixel_vector_terms_equal_the_copied_windows_for_every_weight(
     lbuf = np.zeros(window * bs, dtype=np.uint8)
     rbuf = np.zeros(window * bs, dtype=np.uint8)
     scratch = np.empty((5, window * channels), dtype=np.int32)
-    n = window * window
     for case in ("random", "salt"):
         left = rng.integers(0, 256, 40 * stride, dtype=np.uint8)
         right = rng.integers(0, 256, 40 * stride, dtype=np.uint8)
@@ -192,9 +197,5 @@ def test_subpixel_vector_terms_equal_the_copied_windows_for_every_weight(
             centre = (window // 2) * (bs + channels)
             grad2 = sobel_norm2(lbuf, centre, bs, channels, 1)
             got = vector(left, right, bl, br, stride, window, channels, q)
-            if similarity is ZNCC:
-                want = (*ncc_lanes(lbuf, rbuf, 0, 0, bs, window, channels, scratch), grad2)
-                assert got == want, (case, q)
-            else:
-                want = (zssd_lanes(lbuf, rbuf, 0, 0, bs, window, channels, scratch), grad2)
-                assert (n * got[0] - got[1], got[2]) == want, (case, q)
+            want = (*lanes(lbuf, rbuf, 0, 0, bs, window, channels, scratch), grad2)
+            assert got == want, (case, q)

@@ -113,6 +113,11 @@ def write_sample(path: Path, *, frames: int = 6, compression: str = "zstd", **kw
                 encode.grid(values, origin, 0.1, t, contract.ODOM_FRAME),
             )
             sample.add(contract.PLANNER_POTENTIAL, t, (values, origin, 0.1))
+            detected = rng.uniform(0, 1, (5, 7)) < 0.2
+            inflated = detected | (rng.uniform(0, 1, (5, 7)) < 0.3)
+            occupancy = encode.occupancy_grid(detected, inflated, origin, 0.1, t, "odom")
+            log.write(contract.PLANNER_MAP, t, occupancy)
+            sample.add(contract.PLANNER_MAP, t, (detected, inflated))
             path_xyt = np.column_stack([np.linspace(0, 1, 4), np.zeros(4), np.linspace(0, 1, 4)])
             log.write(
                 contract.PLANNER_PATH, t, encode.poses_in_frame(path_xyt, t, contract.ODOM_FRAME)

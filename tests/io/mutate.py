@@ -65,3 +65,31 @@ def mutate(data: bytes, rng: np.random.Generator) -> tuple[bytes, str]:
     if kind == "delete_record":
         return data[:start] + data[end:], f"delete record {opcode:#04x} at {start}"
     return data[:end] + data[start:end] + data[end:], f"duplicate record {opcode:#04x} at {start}"
+
+
+_CHUNK, _MESSAGE_INDEX = 0x06, 0x07
+
+
+def delete_chunks(data: bytes, rng: np.random.Generator) -> tuple[bytes, str]:
+    """``data`` with one to three of its chunks deleted whole, each with the message index
+    records that follow it half the time (as a lost or cut-out span of a multi-chunk log)."""
+    spans = record_spans(data)
+    chunks = [k for k, (a, _) in enumerate(spans) if data[a] == _CHUNK]
+    count = min(len(chunks), int(rng.integers(1, 4)))
+    picked = sorted(int(i) for i in rng.choice(len(chunks), size=count, replace=False))
+    cuts = []
+    for i in picked:
+        k = chunks[i]
+        start, end = spans[k]
+        if rng.random() < 0.5:
+            while k + 1 < len(spans) and data[spans[k + 1][0]] == _MESSAGE_INDEX:
+                k += 1
+                end = spans[k][1]
+        cuts.append((start, end))
+    out = bytearray()
+    at = 0
+    for start, end in cuts:
+        out += data[at:start]
+        at = end
+    out += data[at:]
+    return bytes(out), f"delete chunks {picked} of {len(chunks)}"

@@ -11,10 +11,11 @@ import numpy as np
 import pytest
 
 from .conftest import write_sample
-from .fuzz import ACCEPTED, FAILURES, run
-from .mutate import MUTATIONS, mutate, record_spans
+from .fuzz import ACCEPTED, FAILURES, Target, run
+from .mutate import MUTATIONS, delete_chunks, mutate, record_spans
 
 MUTANTS = 125  # per log, 250 in all: ~5 s of CPU
+CHUNK_DELETIONS = 20
 
 
 @pytest.fixture(scope="module")
@@ -26,14 +27,28 @@ def logs(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
 
 
 def test_seeded_mutants_read_identical_recovered_or_a_log_error(logs):
-    counts, failures, kept = run(logs, MUTANTS, workers=1)
+    targets = [Target(log, MUTANTS) for log in logs]
+    targets.append(Target(logs[1], CHUNK_DELETIONS, mutation="chunks"))
+    counts, failures, kept = run(targets, workers=1)
     assert failures == []
-    for log in logs:
-        found = counts[str(log)]
-        assert sum(found.values()) == MUTANTS
-        assert set(found) <= set(ACCEPTED) and not set(found) & set(FAILURES)
+    for target in targets:
+        found = counts[target.label]
+        classes = {c: n for c, n in found.items() if c in (*ACCEPTED, *FAILURES)}
+        assert sum(classes.values()) == target.mutants
+        assert not set(classes) & set(FAILURES)
         assert found["recovered"] > 0  # the harness does reach damage it must report
-        assert all(0 <= k <= 1 for k in kept[str(log)])
+        assert found["exact"] + found["bound"] == found["recovered"]
+        assert all(0 <= k <= 1 for k in kept[target.label])
+    # a whole chunk deleted is always a loss counted exactly
+    assert counts[targets[-1].label]["exact"] == CHUNK_DELETIONS
+
+
+def test_chunk_deletions_are_seeded_and_delete_whole_chunks(logs):
+    data = logs[1].read_bytes()
+    mutant, how = delete_chunks(data, np.random.default_rng(3))
+    assert (mutant, how) == delete_chunks(data, np.random.default_rng(3))
+    assert how.startswith("delete chunks") and len(mutant) < len(data)
+    assert record_spans(mutant)[-1][1] == len(mutant) - 8  # records still tile the file
 
 
 def test_mutations_are_seeded_and_of_every_kind(logs):

@@ -116,6 +116,11 @@ def test_fly_cloud_overlay_grid_path_round_trip(read_back):
         assert m.value.cell == cell
         assert (m.value.origin.x, m.value.origin.y) == (origin.x, origin.y)
         assert m.value.origin.theta == pytest.approx(origin.theta, abs=1e-12)
+    maps = zip(got[contract.PLANNER_MAP], sample.written[contract.PLANNER_MAP], strict=True)
+    for m, (_, (detected, inflated)) in maps:
+        expected = np.where(detected, 100, np.where(inflated, 99, 0))
+        assert m.value.values.dtype == np.uint8
+        np.testing.assert_array_equal(m.value.values, expected)
     paths = zip(got[contract.PLANNER_PATH], sample.written[contract.PLANNER_PATH], strict=True)
     for m, (_, xyt) in paths:
         np.testing.assert_array_equal(m.value[:, :2], xyt[:, :2])

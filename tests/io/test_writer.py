@@ -111,7 +111,7 @@ def test_refuses_use_outside_a_block_and_bad_places(tmp_path):
 
 
 def test_config_and_compression_names(tmp_path):
-    assert LogConfig().compression is Compression.LZ4
+    assert LogConfig().compression is Compression.ZSTD
     with pytest.raises(ValueError, match="'gzip' is not a valid Compression"):
         LogWriter(tmp_path / "x.mcap", compression="gzip")
     config = LogConfig(compression=Compression.ZSTD, chunk_size=8192)

@@ -60,7 +60,7 @@ def test_writes_every_output_topic_and_one_row_per_planner_tick(corridor_run):
     assert topics[contract.PLANNER_POTENTIAL].count == 11 == corridor_run.snapshots
     table = pq.read_table(corridor_run.table)
     assert table.num_rows == 21
-    assert table.column("t").to_pylist()[:3] == pytest.approx([0.0, 0.1, 0.2])
+    assert table.column("t_s").to_pylist()[:3] == pytest.approx([0.0, 0.1, 0.2])
     cloud = next(iter(reader.messages([contract.FLIES]))).value
     assert cloud.xyz.shape == (400, 3)
 
@@ -104,8 +104,8 @@ def test_sync_sees_images_at_least_one_frame_late_async_sooner(tmp_path):
     sync = replay(CORRIDOR, tmp_path / "s.mcap", ReplayConfig(
         engine=SMALL.engine, sync=True, generations_per_frame=1))  # fmt: skip
     asyn = replay(CORRIDOR, tmp_path / "a.mcap", ReplayConfig(engine=SMALL.engine))
-    lat_sync = pq.read_table(sync.table).column("image_latency").to_pylist()[5:]
-    lat_async = pq.read_table(asyn.table).column("image_latency").to_pylist()[5:]
+    lat_sync = pq.read_table(sync.table).column("image_latency_s").to_pylist()[5:]
+    lat_async = pq.read_table(asyn.table).column("image_latency_s").to_pylist()[5:]
     period = 1 / 15
     assert min(lat_sync) >= period - 1e-9
     assert sorted(lat_async)[len(lat_async) // 2] < sorted(lat_sync)[len(lat_sync) // 2]
@@ -309,6 +309,7 @@ def test_planner_worker_writes_every_output_on_its_own_nicer_thread():
         (contract.PLANNER_COMMAND, False, worker),
         (contract.PLANNER_POTENTIAL, False, worker),
         (contract.PLANNER_PATH, False, worker),
+        (contract.PLANNER_MAP, False, worker),
     ]
 
 

@@ -77,7 +77,7 @@ def test_cloud_carries_sgbm_points_in_base_link(sgbm_run):
 
 
 def test_image_latency_is_a_frame_period_plus_the_cost(sgbm_run):
-    latency = pq.read_table(sgbm_run.table).column("image_latency").to_pylist()
+    latency = pq.read_table(sgbm_run.table).column("image_latency_s").to_pylist()
     seen = [x for x in latency if not math.isnan(x)]
     assert min(seen) >= 1 / 15 + SGBM.sgbm.seconds_per_frame - 1e-9
 
@@ -87,7 +87,7 @@ def test_a_slow_matcher_skips_frames(tmp_path):
     run = replay(CORRIDOR, tmp_path / "slow.mcap", slow)
     # 2 s of log at 0.2 s a frame: at most 11 frames matched; the newest complete one each time
     assert 8 <= run.generations <= 11 < run.frames
-    latency = pq.read_table(run.table).column("image_latency").to_pylist()
+    latency = pq.read_table(run.table).column("image_latency_s").to_pylist()
     assert min(x for x in latency if not math.isnan(x)) >= 1 / 15 + 0.2 - 1e-9
 
 

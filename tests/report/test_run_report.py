@@ -34,8 +34,20 @@ def test_the_page_has_every_section_and_decodable_images(run: Path, tmp_path: Pa
     assert len(images) == 3  # map, frames, curves
     text = page.read_text(encoding="utf-8")
     assert '<td class="text">precision</td>' in text and '"flies": 200' in text
-    rows = 1 + len(SUMMARY_COLUMNS)  # header + every summary column
-    assert sum(1 for t, _ in tags if t == "tr") == rows
+    assert '<p class="verdict">' in text and "The obstacle flies reach F" in text
+    assert "<details><summary>The run&#x27;s effective configuration" in text  # folded
+    # A row per summary column holding a value: none of "—" (a replay has no time to goal)
+    summary = score_run(run, LOG).summary
+    shown = [
+        c.name
+        for c in SUMMARY_COLUMNS
+        if c.name not in ("run", "log", "log_fingerprint", "run_config", "metrics_config")
+        and summary[c.name] is not None
+        and summary[c.name] == summary[c.name]  # not NaN
+    ]
+    assert "time_to_goal_s" not in shown and "time_to_goal_s" not in text
+    assert sum(1 for t, _ in tags if t == "tr") == 1 + len(shown)
+    assert "<td>—</td>" not in text
 
 
 def test_a_run_without_its_log_is_an_error_and_leaves_nothing(run: Path, tmp_path: Path) -> None:
@@ -51,6 +63,9 @@ def test_the_metrics_outputs_are_shown_as_they_are(run: Path, tmp_path: Path) ->
         cli, ["metrics", str(run), "--log", str(LOG), "-o", str(metrics), "--tau", "0.01"]
     )
     assert scored.exit_code == 0, scored.output
+    # the printed table: no row without a value (a replay has no time to goal), 80 columns
+    assert "time to goal" not in scored.output and "—" not in scored.output
+    assert max(len(line) for line in scored.output.splitlines()) <= 80
     precision = read_summary(metrics)["precision"]
     assert score_run(run, LOG).summary["precision"] != precision  # tau matters here
     page = tmp_path / "report.html"

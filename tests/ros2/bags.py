@@ -222,10 +222,18 @@ def messages(spec: BagSpec) -> list[Message]:
     return out
 
 
-def write_bag(path: Path, items: list[Message], *, serialize: Callable | None = None) -> Path:
+def write_bag(
+    path: Path,
+    items: list[Message],
+    *,
+    serialize: Callable | None = None,
+    custom: dict[str, str] | None = None,
+) -> Path:
     """A rosbag2 directory of ``items`` written by rosbags (``serialize(topic, bytes)`` may
-    alter a message's bytes)."""
+    alter a message's bytes; ``custom``: metadata.yaml's custom_data)."""
     with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        for key, value in (custom or {}).items():
+            writer.set_custom_data(key, value)
         connections: dict[str, Any] = {}
         for topic, msgtype, t_ns, msg in items:
             if topic not in connections:

@@ -149,7 +149,7 @@ def test_without_a_goal_the_planner_is_off_and_said_to_be(tmp_path):
     result = replay_cli(bag, with_goal, "--goal", "3,0")
     assert result.exit_code == 0, result.output
     assert "/planner/command" in open_log(with_goal).topics()
-    assert math.isfinite(pq.read_table(with_goal.with_suffix(".parquet"))["linear"][0].as_py())
+    assert math.isfinite(pq.read_table(with_goal.with_suffix(".parquet"))["linear_m_s"][0].as_py())
 
 
 def test_export_refuses_an_existing_output_and_leaves_nothing_on_failure(tmp_path):

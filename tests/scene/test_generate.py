@@ -131,3 +131,33 @@ def test_cli_writes_a_world_and_a_range(tmp_path) -> None:
     result = runner.invoke(cli, bad)
     assert result.exit_code == 2 and "passage_width" in result.output
     assert not (tmp_path / "x").exists()
+
+
+def test_worlds_written_together_or_not_at_all(tmp_path, monkeypatch) -> None:
+    """A range of worlds whose second file fails as it is published: a folder made for them
+    is gone again, and a folder that was there keeps its files as they were."""
+    import flylog.io.atomic as atomic
+    from flylog.scene.generate import write_worlds
+
+    real = atomic.publish
+    calls = []
+
+    def fail_second(tmp, path, batch=None):
+        calls.append(path)
+        if len(calls) == 2:
+            raise OSError(28, "No space left on device")
+        real(tmp, path, batch)
+
+    monkeypatch.setattr(atomic, "publish", fail_second)
+    new = tmp_path / "new"
+    texts = {new / "a.toml": "a = 1\n", new / "b.toml": "b = 1\n"}
+    with pytest.raises(OSError, match="No space"):
+        write_worlds(texts, new)
+    assert not new.exists()
+    old = tmp_path / "old"
+    old.mkdir()
+    (old / "a.toml").write_text("earlier\n")
+    calls.clear()
+    with pytest.raises(OSError, match="No space"):
+        write_worlds({old / "a.toml": "a = 1\n", old / "b.toml": "b = 1\n"}, old)
+    assert {p.name: p.read_text() for p in old.iterdir()} == {"a.toml": "earlier\n"}

@@ -19,3 +19,9 @@ def test_the_example_spec_is_valid_and_has_16_cells() -> None:
     spec = load_spec(ROOT / "fixtures" / "sweeps" / "example.toml")
     points = len(list(spec.grid_points()))
     assert len(spec.logs) * len(spec.variants) * points * len(spec.seeds) == 16
+
+
+def test_the_gate_spec_has_10_cells_on_the_bundled_scenes() -> None:
+    spec = load_spec(ROOT / "fixtures" / "sweeps" / "gate.toml")
+    assert [s.scene.stem for s in spec.simulate] == ["corridor", "near-obstacle"]
+    assert spec.seeds == (0, 1, 2, 3, 4) and not spec.logs

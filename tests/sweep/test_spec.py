@@ -6,7 +6,7 @@ import pytest
 
 from flylog.errors import ConfigError
 from flylog.replay.config import Stereo
-from flylog.sweep.spec import DEFAULT_VARIANT, Drive, load_spec
+from flylog.sweep.spec import DEFAULT_VARIANT, Drive, load_spec, parse_seeds, with_overrides
 
 from .conftest import LOGS, NEAR, write_spec
 
@@ -136,3 +136,47 @@ stereo = "sgbm"
 def test_no_input_is_a_mistake(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="no inputs"):
         load_spec(write_spec(tmp_path, "seeds = [0]\n"))
+
+
+def test_seeds_from_the_command_line() -> None:
+    assert parse_seeds("3") == (0, 1, 2)
+    assert parse_seeds("5-9") == (5, 6, 7, 8, 9)
+    assert parse_seeds("0,3, 10-12") == (0, 3, 10, 11, 12)
+    for bad in ("0", "4-2", "a", "1,1", "-3", ""):
+        with pytest.raises(ConfigError, match="--seeds: expected N"):
+            parse_seeds(bad)
+
+
+def test_one_spec_two_sides_of_an_ab_comparison(tmp_path: Path) -> None:
+    """The same spec with the candidate's seeds and configuration: only those change."""
+    spec = load_spec(write_spec(tmp_path, f'logs = ["{NEAR}"]\nseeds = 5\n'))
+    config = tmp_path / "candidate.toml"
+    config.write_text("[engine]\nflies = 1500\n", encoding="utf-8")
+    side = with_overrides(spec, seeds=parse_seeds("5-9"), config=config)
+    assert side.seeds == (5, 6, 7, 8, 9) and side.base.engine.flies == 1500
+    assert (side.logs, side.variants, side.grid) == (spec.logs, spec.variants, spec.grid)
+    assert with_overrides(spec) == spec
+    sgbm = load_spec(
+        write_spec(
+            tmp_path, f'logs = ["{NEAR}"]\n[[variants]]\nname = "v"\nstereo = "sgbm"\n', "s.toml"
+        )
+    )
+    config.write_text("generations_per_frame = 3\n", encoding="utf-8")
+    with pytest.raises(ConfigError, match="variant 'v'"):
+        with_overrides(sgbm, config=config)
+
+
+def test_cli_rejects_bad_seeds_and_configs(tmp_path: Path) -> None:
+    from click.testing import CliRunner
+
+    from flylog.cli.main import cli
+
+    spec = write_spec(tmp_path, f'logs = ["{NEAR}"]\n')
+    out = tmp_path / "out"
+    got = CliRunner().invoke(cli, ["sweep", str(spec), "-o", str(out), "--seeds", "3-1"])
+    assert got.exit_code == 2 and "--seeds: expected N" in got.output
+    got = CliRunner().invoke(
+        cli, ["sweep", str(spec), "-o", str(out), "--config", str(tmp_path / "none.toml")]
+    )
+    assert got.exit_code == 2 and "none.toml" in got.output
+    assert not out.exists()

@@ -1,0 +1,28 @@
+"""Replays of a fixture log give the outputs recorded before the engine's refactoring into
+measure definitions and back-ends (docs/architecture.md), bit for bit: the digests below were
+recorded with that code (``python tests/fly/replay_digest.py LOG SEED [key=value ...]``).
+Regenerating the fixture logs changes them; record them again then."""
+
+from pathlib import Path
+
+import pytest
+
+from tests.fly.replay_digest import replay_digest
+
+LOGS = Path(__file__).resolve().parents[2] / "fixtures" / "logs"
+
+CASES = [
+    # the default configuration (zssd, sub-pixel, heading, scouts while turning)
+    ("turn.mcap", 0, {}, "398113da2a5c760f7cd86e7a8d18dade0973756be93a4b4dddde46990167e84b"),
+    (
+        "turn.mcap",
+        1,
+        {"engine.similarity": "zncc", "engine.subpixel": False},
+        "60998ecdf6c659dc3ea27cdf046f5cf4c217157a316f80e7d9403d07bbbb330c",
+    ),
+]
+
+
+@pytest.mark.parametrize(("log", "seed", "overrides", "digest"), CASES)
+def test_replay_outputs_are_the_recorded_ones(log, seed, overrides, digest):
+    assert replay_digest(LOGS / log, seed, overrides) == digest
