@@ -8,6 +8,9 @@ is either of: in the view sector and nearer than the first dense cell of its bea
 in a shadow), or looked through by more fly weight than lies in it
 (:mod:`flylog.planner.evidence`). Sonar echoes mark their arcs at once. The inflated cells
 (robot radius plus ``inflation_margin``) are what the harmonic field treats as obstacles.
+The cells ever seen free, heard free, found dense or echoed, and those the robot stands on,
+are *known* (:attr:`ObstacleMap.known`, never forgotten): the others are where the
+frontier lies (:mod:`flylog.planner.frontier`).
 """
 
 from __future__ import annotations
@@ -37,7 +40,9 @@ class ObstacleMap:
         self.current = np.zeros(shape, dtype=bool)  # dense or echoed at the latest update
         self.recent = np.zeros(shape, dtype=bool)  # dense or echoed since forget_recent
         self.recent_seen = np.zeros(shape, dtype=bool)  # in view, not shadowed, since then
+        self.known = np.zeros(shape, dtype=bool)  # ever seen, heard free, or an obstacle
         self.version = 0  # bumped whenever obstacles or values change
+        self.known_version = 0  # bumped whenever known gains cells
         self._seen_free_count = np.zeros(shape, dtype=np.int32)
         self._seen_dense_count = np.zeros(shape, dtype=np.int32)
         self._inflated_from = self.remembered.copy()
@@ -88,6 +93,14 @@ class ObstacleMap:
         detected = dense_now & (count[rows, cols] >= cfg.confirm_after_views)
         seen = obs.seen_free(in_view, dense_now, rng, bearing, half_fov, cfg.cell_size, vr)
         self.recent_seen[rows, cols] |= seen | dense_now
+        # seen, as far as a fly counts fully (ev.full_weight_range): farther, a wall is mapped
+        # late or not at all, and the cells behind it would count as seen free
+        near = rng <= ev.full_weight_range(focal_baseline, cfg.full_weight_depth_error, vr)
+        known = ((seen | dense_now) & near) | (rng <= cfg.robot_radius)  # the robot's cells
+        if looked_through is not None:
+            known |= looked_through & in_view & near
+        if sonar_free is not None:
+            known |= sonar_free
         echoed = None
         if sonar_xy is not None and len(sonar_xy):
             echoed = obs.fly_counts(self.geometry, sonar_xy) > 0
@@ -111,7 +124,19 @@ class ObstacleMap:
             self.remembered |= echoed
             self.current |= echoed
         self.recent |= self.current
+        self._learn(known, rows, cols, echoed)
         return self._inflate()
+
+    def _learn(
+        self, known: np.ndarray, rows: slice, cols: slice, echoed: np.ndarray | None
+    ) -> None:
+        """Add an update's cells seen, heard free or echoed to :attr:`known`."""
+        before = int(np.count_nonzero(self.known))
+        self.known[rows, cols] |= known
+        if echoed is not None:
+            self.known |= echoed
+        if int(np.count_nonzero(self.known)) != before:
+            self.known_version += 1
 
     def _fly_evidence(
         self, pts: np.ndarray, pose: Pose2D, view_range: float, focal_baseline: float | None
@@ -132,10 +157,13 @@ class ObstacleMap:
         through = ev.seen_through(self.geometry, (pose.x, pose.y), pts, stops, weights)
         return weight, through
 
-    def replace(self, detected: np.ndarray) -> int:
+    def replace(self, detected: np.ndarray, known: np.ndarray | None = None) -> int:
         """Remember exactly the cells of ``detected`` (H, W) bool (a map of known geometry);
-        how many inflated cells changed."""
+        ``known`` (H, W) bool: the cells that count as seen (None: every cell); how many
+        inflated cells changed."""
         self.remembered[:] = detected
+        self.known[:] = True if known is None else known
+        self.known_version += 1
         return self._inflate()
 
     def clear(self) -> int:
