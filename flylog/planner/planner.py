@@ -93,6 +93,7 @@ class HarmonicPlanner:
         self._sinks: np.ndarray | None = None
         self._frontier_cut = False  # the sinks held are cut off from the robot
         self._release = False  # the recoveries for them are spent: take the next frontier
+        self._for_frontier = False  # the recoveries in force began for a frontier cut off
         self._sink_cells = np.zeros((n, n), dtype=bool)  # the sinks pinned in the field
         self._fixed = np.zeros((n, n), dtype=bool)
         # the relaxed state: obstacle cells hold obstacle_weight × their value, so the
@@ -339,15 +340,23 @@ class HarmonicPlanner:
         cfg, seq = self.config, self._recoveries
         before = seq.phase
         cut_off = self.goal_cut_off(robot_pose)
-        phase = seq.step(cut_off or self._frontier_cut, t, robot_pose)
+        # recoveries begun for a frontier cut off run to their end: the frontier a turn
+        # sees open for a tick would otherwise stop them and start them again, for ever
+        frontier = self._frontier_cut or (self._for_frontier and before is not Recovery.NONE)
+        phase = seq.step(cut_off or frontier, t, robot_pose)
+        if before is Recovery.NONE and phase is not Recovery.NONE:
+            self._for_frontier = not cut_off
         if phase is Recovery.EXHAUSTED and not cut_off:
             # the frontier nearest the goal stays cut off, the goal is not: the next one
-            self._release, self._frontier_cut = True, False
+            self._release, self._frontier_cut, self._for_frontier = True, False, False
             seq.reset()
             return None
         if phase is Recovery.NONE:
-            if before is not Recovery.NONE:  # the map opened: progress counts from here
+            # the map opened to the goal: progress counts from here (not for a frontier,
+            # whose recoveries leave the goal as far as it was)
+            if before is not Recovery.NONE and not self._for_frontier:
                 self._monitor.reset()
+            self._for_frontier = False
             return None
         if phase is Recovery.LOOK_AROUND and before is not phase:
             self.map.forget_recent()  # the look-around gathers the evidence clear_stale keeps

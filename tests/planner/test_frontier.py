@@ -68,3 +68,20 @@ def test_sinks_are_the_goal_once_reachable_in_known_space_and_none_in_a_closed_r
     walls = known & ~inner  # the square's rim, mapped
     closed = frontier_sinks(known, walls, (5, 5), (10, 25), distance, band=0.01)
     assert closed is not None and not closed.any()
+
+
+def test_cells_count_as_seen_only_as_far_as_a_fly_counts_fully():
+    """No fly in view: the cells in view are seen free up to the view range, but known only
+    up to sqrt(full_weight_depth_error × f·B) (2.12 m for f·B = 30 px·m), and the robot's
+    own cells are known too."""
+    cfg = PlannerConfig(extent=12.0)
+    p = HarmonicPlanner.centred_on(cfg, (0.0, 0.0), (5.0, 0.0))
+    pose = Pose2D(0.0, 0.0, 0.0)
+    p.update_obstacles(np.zeros((0, 2)), pose, np.radians(30.0), 4.7, focal_baseline=30.0)
+    x, y = p.geometry.centres()
+    r = np.hypot(x, y)
+    known = p.map.known
+    reach = np.sqrt(cfg.full_weight_depth_error * 30.0)
+    assert known[(r < reach - 0.1) & (np.abs(np.arctan2(y, x)) < np.radians(25.0))].all()
+    assert not known[r > reach + 0.1].any()
+    assert known[r <= cfg.robot_radius].all()
