@@ -120,7 +120,7 @@ class PlannerConfig:
         max=1.0,
     )
     frontier_field: bool = param(
-        True,
+        False,
         help="while the goal is not among the cells seen free that the robot can reach, the "
         "unseen cells beside them nearest the goal (the frontier on the goal's side) are the "
         "field's sinks in the goal's place: the robot goes to look there, not round the "
