@@ -59,6 +59,7 @@ experiments: $(STAMP)
 	$(BIN)/flylog experiment sonar -o docs/experiments
 	$(BIN)/flylog experiment latency -o docs/experiments
 	$(BIN)/flylog experiment closed-loop --seeds 10 -o docs/experiments
+	$(BIN)/flylog experiment navigation -o docs/experiments
 
 # docs/configuration.md and the table schemas in docs/metrics.md, from the code (a test
 # checks they are current).

@@ -11,6 +11,7 @@ from flylog.cli.common import Finite, OutputPath, progress_bar, reports_errors, 
 QUICK_RESOLUTION = (160, 120)
 QUICK_SEEDS = 2
 DEFAULT_SEEDS = 5
+OWN_DEFAULT_SEEDS = {"navigation": 30}  # worlds per family (flylog.experiments.navigation)
 
 
 @click.command()
@@ -30,7 +31,8 @@ DEFAULT_SEEDS = 5
     default=None,
     metavar="N",
     help=f"Seeds per configuration, 0…N−1 (each simulates its own log and seeds the "
-    f"engine). [default: {DEFAULT_SEEDS}; {QUICK_SEEDS} with --quick]",
+    f"engine); navigation: N passages and N clutter worlds, N/3 dead-end ones. [default: "
+    f"{DEFAULT_SEEDS}, navigation 30; {QUICK_SEEDS} with --quick]",
 )
 @click.option(
     "--resolution",
@@ -94,7 +96,8 @@ def experiment(
     NAME is one of: proprioception (on/off on turn, one generation per frame: Fig. 4/5),
     sonar (fusion on/off on near-obstacle: Fig. 9), latency (async vs --sync vs SGBM:
     detection latency and planner reaction, Table 1), closed-loop (obstacle avoidance on
-    corridor and clutter: Fig. 7/8), all.
+    corridor and clutter: Fig. 7/8), navigation (generated passages, clutter and dead-end
+    worlds, one closed-loop run each), all.
     """
     from flylog.experiments import EXPERIMENTS, experiment_names
     from flylog.experiments.common import ExperimentOptions
@@ -103,7 +106,7 @@ def experiment(
 
     names = experiment_names(name)
     options = ExperimentOptions(
-        seeds=seeds or (QUICK_SEEDS if quick else DEFAULT_SEEDS),
+        seeds=seeds or (QUICK_SEEDS if quick else OWN_DEFAULT_SEEDS.get(name, DEFAULT_SEEDS)),
         resolution=resolution or (QUICK_RESOLUTION if quick else (320, 240)),
         duration=duration,
         flies=flies,

@@ -25,6 +25,7 @@ _COMMANDS = {
     "sweep": ("sweep", "sweep"),
     "report": ("report", "report"),
     "import": ("import_", "import_"),
+    "scene": ("scene", "scene"),
     "describe": ("describe", "describe"),
 }
 

@@ -81,6 +81,7 @@ OPTIONS_ONLY = (
     "flylog.experiments.common.ExperimentOptions",
     "flylog.io.writer.LogConfig",
     "flylog.ros2.config.BagOptions",  # replay's --topic, --pair-tolerance, --sonar-window
+    "flylog.scene.generate.GenerateConfig",  # scene generate's --passage-width, --difficulty
 )
 
 

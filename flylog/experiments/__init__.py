@@ -38,6 +38,11 @@ EXPERIMENTS = MappingProxyType(
             "plan_closed_loop",
             "closed-loop avoidance on corridor and clutter (Fig. 7/8)",
         ),
+        "navigation": (
+            "navigation",
+            "plan_navigation",
+            "closed loop on generated passages, clutter and dead-end worlds (issue 35)",
+        ),
     }
 )
 

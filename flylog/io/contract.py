@@ -173,6 +173,7 @@ class CommandStatus(enum.Enum):
     DRIVING = "driving"
     GOAL_REACHED = "goal_reached"
     STUCK = "stuck"
+    UNREACHABLE = "unreachable"
 
 
 _TIME = {

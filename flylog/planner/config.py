@@ -119,6 +119,21 @@ class PlannerConfig:
         min=0.0,
         max=1.0,
     )
+    frontier_field: bool = param(
+        False,
+        help="while the goal is not among the cells seen free that the robot can reach, the "
+        "unseen cells beside them nearest the goal (the frontier on the goal's side) are the "
+        "field's sinks in the goal's place: the robot goes to look there, not round the "
+        "outside of walls it has not mapped yet (off: the goal is the sink, and unseen "
+        "cells count as free space either way)",
+    )
+    frontier_band: float = param(
+        0.5,
+        help="with frontier_field, the frontier cells that pull: those within this of the "
+        "straight-line distance to the goal of the frontier's nearest cell",
+        unit="m",
+        min=0.0,
+    )
     clear_free_cells: bool = param(
         True,
         help="forget obstacle cells that the cameras see as free (in view, not occluded)",
@@ -320,8 +335,9 @@ class PlannerConfig:
     )
     stale_keep_distance: float = param(
         0.5,
-        help="second recovery: remembered obstacle cells farther than this from every cell of "
-        "the latest update's evidence (dense in view, or a sonar echo) are forgotten",
+        help="second recovery: remembered obstacle cells seen since the look-around began "
+        "(in view, not in a shadow) and farther than this from every cell of those updates' "
+        "evidence (dense in view, or a sonar echo) are forgotten",
         unit="m",
         min=0.0,
     )

@@ -109,3 +109,14 @@ def _seen_through_kernel(ox, oy, cell, n, x0, y0, pts, stops, weights):  # pragm
                 out[i, j] += weights[k]
                 last = flat
     return out
+
+
+def full_weight_range(
+    focal_baseline: float | None, full_weight_depth_error: float, view_range: float
+) -> float:
+    """The range (m) up to which a fly counts fully, where one pixel of disparity spans
+    ``full_weight_depth_error``: sqrt(error × f·B) (2.1 m at 320×240 with the bundled rig,
+    f·B = 30 px·m), at most ``view_range``; ``view_range`` without ``focal_baseline``."""
+    if focal_baseline is None or full_weight_depth_error <= 0.0:
+        return float(view_range)
+    return min(math.sqrt(full_weight_depth_error * float(focal_baseline)), float(view_range))

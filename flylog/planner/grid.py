@@ -79,6 +79,21 @@ def log_distance_guess(geometry: GridGeometry, goal: tuple[float, float]) -> np.
     return guess / guess.max()
 
 
+def neighbour_mean(u: np.ndarray) -> np.ndarray:
+    """(H, W): the mean of each cell's four neighbours (of those on the grid)."""
+    total = np.zeros_like(u)
+    count = np.zeros_like(u)
+    total[1:, :] += u[:-1, :]
+    count[1:, :] += 1
+    total[:-1, :] += u[1:, :]
+    count[:-1, :] += 1
+    total[:, 1:] += u[:, :-1]
+    count[:, 1:] += 1
+    total[:, :-1] += u[:, 1:]
+    count[:, :-1] += 1
+    return total / count
+
+
 def bilinear(field: np.ndarray, geometry: GridGeometry, x: float, y: float) -> float:
     """``field`` (H, W), sampled at cell centres, bilinearly interpolated at (x, y); clamped
     to the outermost cell centres."""

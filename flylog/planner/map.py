@@ -8,6 +8,9 @@ is either of: in the view sector and nearer than the first dense cell of its bea
 in a shadow), or looked through by more fly weight than lies in it
 (:mod:`flylog.planner.evidence`). Sonar echoes mark their arcs at once. The inflated cells
 (robot radius plus ``inflation_margin``) are what the harmonic field treats as obstacles.
+The cells ever seen free, heard free, found dense or echoed, and those the robot stands on,
+are *known* (:attr:`ObstacleMap.known`, never forgotten): the others are where the
+frontier lies (:mod:`flylog.planner.frontier`).
 """
 
 from __future__ import annotations
@@ -35,7 +38,11 @@ class ObstacleMap:
         self.obstacles = np.zeros(shape, dtype=bool)  # inflated
         self.values = np.zeros(shape)  # Dirichlet values on self.obstacles
         self.current = np.zeros(shape, dtype=bool)  # dense or echoed at the latest update
+        self.recent = np.zeros(shape, dtype=bool)  # dense or echoed since forget_recent
+        self.recent_seen = np.zeros(shape, dtype=bool)  # in view, not shadowed, since then
+        self.known = np.zeros(shape, dtype=bool)  # ever seen, heard free, or an obstacle
         self.version = 0  # bumped whenever obstacles or values change
+        self.known_version = 0  # bumped whenever known gains cells
         self._seen_free_count = np.zeros(shape, dtype=np.int32)
         self._seen_dense_count = np.zeros(shape, dtype=np.int32)
         self._inflated_from = self.remembered.copy()
@@ -84,11 +91,21 @@ class ObstacleMap:
         count[rows, cols] = np.where(dense_now, self._seen_dense_count[rows, cols] + 1, 0)
         self._seen_dense_count = count
         detected = dense_now & (count[rows, cols] >= cfg.confirm_after_views)
+        seen = obs.seen_free(in_view, dense_now, rng, bearing, half_fov, cfg.cell_size, vr)
+        self.recent_seen[rows, cols] |= seen | dense_now
+        # seen, as far as a fly counts fully (ev.full_weight_range): farther, a wall is mapped
+        # late or not at all, and the cells behind it would count as seen free
+        near = rng <= ev.full_weight_range(focal_baseline, cfg.full_weight_depth_error, vr)
+        known = ((seen | dense_now) & near) | (rng <= cfg.robot_radius)  # the robot's cells
+        if looked_through is not None:
+            known |= looked_through & in_view & near
+        if sonar_free is not None:
+            known |= sonar_free
         echoed = None
         if sonar_xy is not None and len(sonar_xy):
             echoed = obs.fly_counts(self.geometry, sonar_xy) > 0
         if cfg.clear_free_cells:
-            free = obs.seen_free(in_view, dense_now, rng, bearing, half_fov, cfg.cell_size, vr)
+            free = seen.copy()
             if looked_through is not None:
                 free |= looked_through & in_view
             if sonar_free is not None:
@@ -96,9 +113,9 @@ class ObstacleMap:
             free &= rng >= cfg.clear_min_range
             if echoed is not None:
                 free &= ~echoed[rows, cols]
-            seen = np.zeros_like(self._seen_free_count)
-            seen[rows, cols] = np.where(free, self._seen_free_count[rows, cols] + 1, 0)
-            self._seen_free_count = seen
+            counted = np.zeros_like(self._seen_free_count)
+            counted[rows, cols] = np.where(free, self._seen_free_count[rows, cols] + 1, 0)
+            self._seen_free_count = counted
             self.remembered &= self._seen_free_count < cfg.clear_after_views
         self.remembered[rows, cols] |= detected
         self.current[:] = False
@@ -106,7 +123,20 @@ class ObstacleMap:
         if echoed is not None:
             self.remembered |= echoed
             self.current |= echoed
+        self.recent |= self.current
+        self._learn(known, rows, cols, echoed)
         return self._inflate()
+
+    def _learn(
+        self, known: np.ndarray, rows: slice, cols: slice, echoed: np.ndarray | None
+    ) -> None:
+        """Add an update's cells seen, heard free or echoed to :attr:`known`."""
+        before = int(np.count_nonzero(self.known))
+        self.known[rows, cols] |= known
+        if echoed is not None:
+            self.known |= echoed
+        if int(np.count_nonzero(self.known)) != before:
+            self.known_version += 1
 
     def _fly_evidence(
         self, pts: np.ndarray, pose: Pose2D, view_range: float, focal_baseline: float | None
@@ -127,25 +157,42 @@ class ObstacleMap:
         through = ev.seen_through(self.geometry, (pose.x, pose.y), pts, stops, weights)
         return weight, through
 
-    def replace(self, detected: np.ndarray) -> int:
+    def replace(self, detected: np.ndarray, known: np.ndarray | None = None) -> int:
         """Remember exactly the cells of ``detected`` (H, W) bool (a map of known geometry);
-        how many inflated cells changed."""
+        ``known`` (H, W) bool: the cells that count as seen (None: every cell); how many
+        inflated cells changed."""
         self.remembered[:] = detected
+        self.known[:] = True if known is None else known
+        self.known_version += 1
         return self._inflate()
 
     def clear(self) -> int:
         """Forget every obstacle; how many inflated cells changed."""
         self.remembered[:] = False
         self.current[:] = False
+        self.recent[:] = False
+        self.recent_seen[:] = False
         self._seen_free_count[:] = 0
         self._seen_dense_count[:] = 0
         return self._inflate()
 
+    def forget_recent(self) -> None:
+        """Start gathering the evidence :meth:`clear_stale` keeps afresh (from the next
+        update on)."""
+        self.recent[:] = False
+        self.recent_seen[:] = False
+
     def clear_stale(self, keep_distance: float) -> int:
-        """Forget the remembered cells farther than ``keep_distance`` (m) from every cell of
-        the latest update's evidence (dense in view, or echoed); how many were forgotten."""
-        near = obs.distance_within(self.current, keep_distance / self.config.cell_size)
-        stale = self.remembered & ~np.isfinite(near)
+        """Forget the remembered cells that the cameras saw (in view, not in a shadow) in
+        the updates since :meth:`forget_recent` and that lie farther than ``keep_distance``
+        (m) from every cell of those updates' evidence (dense in view, or echoed); how many
+        were forgotten. The planner calls :meth:`forget_recent` as the look-around begins:
+        a wall seen anywhere round the robot is kept, and so is every cell the look-around
+        could not see (beyond the mapping range, or behind a wall), which no view
+        contradicts."""
+        near = obs.distance_within(self.recent, keep_distance / self.config.cell_size)
+        seen = obs.distance_within(self.recent_seen, 1.0)  # the cell or a neighbour
+        stale = self.remembered & ~np.isfinite(near) & np.isfinite(seen)
         self.remembered &= ~stale
         self._inflate()
         return int(np.count_nonzero(stale))

@@ -12,7 +12,11 @@ its free neighbours: below 1, a Robin boundary under which 1 − U does not deca
 exponentially along a channel, so a narrow passage to the goal is not outweighed by a wide
 detour (docs/navigation.md gives the decay rates). The only minimum is still the goal.
 The obstacle memory is :class:`~flylog.planner.map.ObstacleMap`; a goal the map cuts off
-starts the recoveries of :mod:`flylog.planner.recovery`.
+starts the recoveries of :mod:`flylog.planner.recovery`. With ``frontier_field``, while the
+goal is not reachable through cells seen free, the frontier cells nearest the goal are the
+field's sinks in its place (:mod:`flylog.planner.frontier`); when
+those are cut off from the robot the recoveries run too, and once spent the next frontier
+pulls (the goal is not said to be unreachable: it is not cut off).
 """
 
 from __future__ import annotations
@@ -25,12 +29,14 @@ from flylog.errors import ConfigError
 from flylog.geometry import Pose2D
 from flylog.planner import obstacles as obs
 from flylog.planner.config import PlannerConfig
+from flylog.planner.frontier import nearest_cells, reachable_frontier
 from flylog.planner.grid import (
     GridGeometry,
     bilinear,
     centred_origin,
     gradient_field,
     log_distance_guess,
+    neighbour_mean,
 )
 from flylog.planner.map import ObstacleMap
 from flylog.planner.reach import any_within, reachable_from
@@ -81,6 +87,14 @@ class HarmonicPlanner:
         self._border[[0, -1], :] = True
         self._border[:, [0, -1]] = True
         self.map = ObstacleMap(config, self.geometry)
+        x, y = self.geometry.centres()
+        self._goal_distance = np.hypot(x - self.goal[0], y - self.goal[1])
+        # frontier_field: the frontier cells that pull (None: the goal, or not yet computed)
+        self._sinks: np.ndarray | None = None
+        self._frontier_cut = False  # the sinks held are cut off from the robot
+        self._release = False  # the recoveries for them are spent: take the next frontier
+        self._for_frontier = False  # the recoveries in force began for a frontier cut off
+        self._sink_cells = np.zeros((n, n), dtype=bool)  # the sinks pinned in the field
         self._fixed = np.zeros((n, n), dtype=bool)
         # the relaxed state: obstacle cells hold obstacle_weight × their value, so the
         # sweep's weighted mean needs no per-neighbour weights (see obs.neighbour_factor)
@@ -161,18 +175,57 @@ class HarmonicPlanner:
         changed = self.map.update(
             points_odom_xy, robot_pose, half_fov, vr, sonar_xy, focal_baseline, sonar_cones
         )
-        if self.map.version != version:
+        moved = self.config.frontier_field and self.update_frontier(robot_pose, apply=False)
+        if self.map.version != version or moved:
             self._apply_dirichlet()
         return changed
+
+    def update_frontier(self, robot_pose: Pose2D, *, apply: bool = True) -> bool:
+        """With ``frontier_field``: recompute the frontier cells that pull, as seen from the
+        robot (:mod:`flylog.planner.frontier`; :meth:`update_obstacles` does so at every
+        update), and with ``apply`` re-pin the field; whether they changed. A robot inside
+        an inflated obstacle looks from the free cells near it."""
+        m, cfg = self.map, self.config
+        cell = self.geometry.cell_of(robot_pose.x, robot_pose.y)
+        obstacles = m.obstacles
+        if obstacles[cell]:
+            r = math.ceil(cfg.inflation_cells) + 1
+            obstacles = obstacles.copy()
+            i, j = cell
+            obstacles[max(i - r, 0) : i + r + 1, max(j - r, 0) : j + r + 1] = False
+        region, frontier = reachable_frontier(m.known, obstacles, cell)
+        held, self._frontier_cut = self._sinks, False
+        sinks = (
+            None
+            if region[self._goal_cell]
+            else nearest_cells(frontier, self._goal_distance, cfg.frontier_band)
+        )
+        if sinks is not None and held is not None and not self._release:
+            # the frontier nearest the goal cut off (a passage closed in the map, perhaps
+            # by a phantom): keep pulling there while the recoveries try to open it
+            still = held & ~m.known & ~obstacles
+            if still.any() and not (still & frontier).any():
+                new = float(self._goal_distance[sinks].min()) if sinks.any() else math.inf
+                if new > float(self._goal_distance[still].min()) + cfg.frontier_band:
+                    sinks, self._frontier_cut = still, True
+        self._release = False
+        same = (sinks is None and held is None) or (
+            sinks is not None and held is not None and np.array_equal(sinks, held)
+        )
+        self._sinks = sinks
+        if apply and not same:
+            self._apply_dirichlet()
+        return not same
 
     def clear_obstacles(self) -> None:
         """Forget every obstacle (the potential relaxes back over the freed cells)."""
         self.set_detected(np.zeros(self.geometry.shape, dtype=bool))
 
-    def set_detected(self, detected: np.ndarray) -> None:
-        """Remember exactly the cells of ``detected`` (H, W) bool: a map of known geometry."""
+    def set_detected(self, detected: np.ndarray, known: np.ndarray | None = None) -> None:
+        """Remember exactly the cells of ``detected`` (H, W) bool: a map of known geometry;
+        ``known`` (H, W) bool, the cells that count as seen (None: every cell)."""
         self.map.clear()
-        self.map.replace(detected)
+        self.map.replace(detected, known)
         self._apply_dirichlet()
 
     def goal_cut_off(self, robot_pose: Pose2D) -> bool:
@@ -249,8 +302,8 @@ class HarmonicPlanner:
         speed is scaled down near the goal (``goal_slowdown``) and near remembered obstacles
         (``obstacle_slowdown``, :meth:`clearance`). STUCK when the distance to the goal has
         not improved by ``stuck_progress`` for ``stuck_time`` (the steering command is still
-        given: the caller decides whether to stop), and once the recoveries of a goal cut
-        off in the map are spent (:mod:`flylog.planner.recovery`: zero velocities)."""
+        given: the caller decides whether to stop). UNREACHABLE (zero velocities) once the
+        recoveries of a goal cut off in the map are spent (:mod:`flylog.planner.recovery`)."""
         cfg = self.config
         dx, dy = self.goal[0] - robot_pose.x, self.goal[1] - robot_pose.y
         distance = math.hypot(dx, dy)
@@ -286,11 +339,27 @@ class HarmonicPlanner:
         """The recovery's command while the goal is cut off (None: steer along the field)."""
         cfg, seq = self.config, self._recoveries
         before = seq.phase
-        phase = seq.step(self.goal_cut_off(robot_pose), t, robot_pose)
-        if phase is Recovery.NONE:
-            if before is not Recovery.NONE:  # the map opened: progress counts from here
-                self._monitor.reset()
+        cut_off = self.goal_cut_off(robot_pose)
+        # recoveries begun for a frontier cut off run to their end: the frontier a turn
+        # sees open for a tick would otherwise stop them and start them again, for ever
+        frontier = self._frontier_cut or (self._for_frontier and before is not Recovery.NONE)
+        phase = seq.step(cut_off or frontier, t, robot_pose)
+        if before is Recovery.NONE and phase is not Recovery.NONE:
+            self._for_frontier = not cut_off
+        if phase is Recovery.EXHAUSTED and not cut_off:
+            # the frontier nearest the goal stays cut off, the goal is not: the next one
+            self._release, self._frontier_cut, self._for_frontier = True, False, False
+            seq.reset()
             return None
+        if phase is Recovery.NONE:
+            # the map opened to the goal: progress counts from here (not for a frontier,
+            # whose recoveries leave the goal as far as it was)
+            if before is not Recovery.NONE and not self._for_frontier:
+                self._monitor.reset()
+            self._for_frontier = False
+            return None
+        if phase is Recovery.LOOK_AROUND and before is not phase:
+            self.map.forget_recent()  # the look-around gathers the evidence clear_stale keeps
         cleared = phase is Recovery.CLEAR_STALE and before is not phase
         if cleared and self.map.clear_stale(cfg.stale_keep_distance):
             self._apply_dirichlet()
@@ -304,7 +373,10 @@ class HarmonicPlanner:
             if self.clearance(back.x, back.y, room) < room:
                 seq.skip_backing_up(t, robot_pose)
         linear, angular = seq.command() or (0.0, 0.0)
-        status = Status.STUCK if stuck or seq.phase is Recovery.EXHAUSTED else Status.DRIVING
+        if seq.phase is Recovery.EXHAUSTED:
+            status = Status.UNREACHABLE
+        else:
+            status = Status.STUCK if stuck else Status.DRIVING
         return Command(linear, angular, status, seq.phase)
 
     def steering_direction(self, robot_pose: Pose2D) -> tuple[float, float]:
@@ -363,8 +435,13 @@ class HarmonicPlanner:
         gi, gj = self._goal_cell
         a = self.config.obstacle_weight
         obstacles, values = self.map.obstacles, self.map.values
-        self._fixed = self._border | obstacles
-        self._fixed[gi, gj] = True
+        # the frontier's sinks (frontier_field): while there are any, they pull in the
+        # goal's place, 0 as the goal is; cells that were sinks and are free now restart
+        # from their neighbours' mean, not as sinks
+        sinks = self._frontier_sinks()
+        goal = not sinks.any()
+        self._fixed = self._border | obstacles | sinks
+        self._fixed[gi, gj] |= goal
         self._u[self._border] = 1.0
         weighted = obstacles & ~self._border
         weighted[gi, gj] = False
@@ -373,12 +450,27 @@ class HarmonicPlanner:
         # transient sink next to the obstacle, drawing the robot to it until relaxed away
         self._u[self._weighted & ~weighted] = 1.0
         self._u[weighted] = a * values[weighted]
+        freed = self._sink_cells & ~self._fixed
+        if not goal and not self._fixed[gi, gj]:
+            freed[gi, gj] = True
+        if freed.any():
+            self._u[freed] = neighbour_mean(self._u)[freed]
+        self._sink_cells = sinks
         # freed obstacle cells may hold values above 1, which no free cell has at convergence
         np.minimum(self._u, 1.0, out=self._u, where=~self._fixed)
-        self._u[gi, gj] = 0.0
+        self._u[sinks] = 0.0
+        if goal:
+            self._u[gi, gj] = 0.0
         self._factor = None if a == 1.0 else obs.neighbour_factor(np.where(weighted, a, 1.0))
         self._weighted = weighted
         self._grad_cache = self._field_cache = None
+
+    def _frontier_sinks(self) -> np.ndarray:
+        """The frontier cells pinned to 0 now (none without frontier_field, or with the goal
+        reachable in known space): unknown cells that are not obstacles."""
+        if not self.config.frontier_field or self._sinks is None:
+            return np.zeros_like(self._fixed)
+        return self._sinks & ~self.map.known & ~self._fixed
 
     def _sweep(self, n: int, omega: float | None = None) -> float:
         cfg = self.config

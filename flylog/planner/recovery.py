@@ -7,8 +7,10 @@ No descent reaches the goal from a region that the map walls off (see
 cleared); forgetting the remembered cells far from the latest evidence
 (``stale_keep_distance``); backing up ``backup_distance`` (a robot pressed against an
 obstacle sees it nearer than the engine's depth range). If the goal is still cut off,
-the status is STUCK until the map opens again. Whenever the goal becomes reachable the
-sequence ends and the robot steers along the field again.
+the status is UNREACHABLE: with unknown cells counted as free, no frontier of the robot's
+free space leads to the goal (docs/navigation.md states the rule and its limit).
+Whenever the goal becomes reachable the sequence ends and the robot steers along the
+field again.
 """
 
 from __future__ import annotations
@@ -29,7 +31,7 @@ class Recovery(enum.Enum):
     LOOK_AROUND = "look_around"
     CLEAR_STALE = "clear_stale"
     BACK_UP = "back_up"
-    EXHAUSTED = "exhausted"  # every recovery tried: the status is STUCK
+    EXHAUSTED = "exhausted"  # every recovery tried: the status is UNREACHABLE
 
 
 @dataclass(frozen=True, slots=True)

@@ -23,6 +23,7 @@ class Status(enum.Enum):
     DRIVING = "driving"
     GOAL_REACHED = "goal_reached"
     STUCK = "stuck"
+    UNREACHABLE = "unreachable"  # the map walls the goal off, and the recoveries did not open it
 
 
 @dataclass(frozen=True, slots=True)

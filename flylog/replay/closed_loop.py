@@ -3,8 +3,8 @@
 The same pipeline and virtual clock as replay, fed with the records as the simulator
 produces them; the command is the planner's newest. Implements the simulator's Driver
 protocol plus ``observe`` (records in), ``finish`` (flush at the end), ``finished`` and
-``status``. The run is finished when the planner reports the goal reached, or once it has
-reported STUCK for ``planner.stuck_timeout`` seconds without a break.
+``status``. The run is finished when the planner reports the goal reached or unreachable,
+or once it has reported STUCK for ``planner.stuck_timeout`` seconds without a break.
 """
 
 from __future__ import annotations
@@ -20,6 +20,9 @@ from flylog.replay.config import ReplayConfig
 from flylog.replay.pipeline import FlyPipeline, Write
 from flylog.replay.run import clock_config
 from flylog.scene.load import Scene
+
+# statuses that end a run at once
+_ENDS = (Status.GOAL_REACHED, Status.UNREACHABLE)
 
 
 class PlannerDriver:
@@ -51,7 +54,7 @@ class PlannerDriver:
             self._stuck_since = None
         elif self._stuck_since is None:
             self._stuck_since = t
-        if cmd.status is Status.GOAL_REACHED or self.finished:
+        if cmd.status in _ENDS or self.finished:
             return 0.0, 0.0
         return cmd.linear, cmd.angular
 
@@ -62,7 +65,7 @@ class PlannerDriver:
 
     @property
     def finished(self) -> bool:
-        if self.pipeline.command.status is Status.GOAL_REACHED:
+        if self.pipeline.command.status in _ENDS:
             return True
         return self._stuck_since is not None and (
             self.stuck_for >= self.config.planner.stuck_timeout
@@ -70,15 +73,16 @@ class PlannerDriver:
 
     @property
     def status(self) -> str:
-        """How the run stands: the planner's status ('goal_reached', 'stuck', 'driving')."""
+        """How the run stands: the planner's status ('goal_reached', 'unreachable', 'stuck',
+        'driving')."""
         return self.pipeline.command.status.value
 
     @property
     def ending(self) -> str:
-        """Why the run ends (or would end now): 'goal_reached', 'stuck' (STUCK for
-        planner.stuck_timeout) or 'duration' (the simulation's time ran out)."""
-        if self.pipeline.command.status is Status.GOAL_REACHED:
-            return "goal_reached"
+        """Why the run ends (or would end now): 'goal_reached', 'unreachable', 'stuck' (STUCK
+        for planner.stuck_timeout) or 'duration' (the simulation's time ran out)."""
+        if self.pipeline.command.status in _ENDS:
+            return self.pipeline.command.status.value
         return "stuck" if self.finished else "duration"
 
     def finish(self, end_ns: int) -> dict[str, str]:

@@ -48,7 +48,7 @@ STEP_COLUMNS = (
     Column("theta_rad", _F, "rad", "odometric heading"),
     Column("linear_m_s", _F, "m/s", "commanded linear velocity"),
     Column("angular_rad_s", _F, "rad/s", "commanded angular velocity"),
-    Column("status", _S, "", "planner status: driving, goal_reached or stuck"),
+    Column("status", _S, "", "planner status: driving, goal_reached, stuck or unreachable"),
     Column("potential_change", _F, "", "largest change of the tick's last SOR sweep"),
 )
 

@@ -206,6 +206,26 @@ class DriveConfig:
 
 
 @dataclass(frozen=True)
+class GeneratedConfig:
+    """What ``flylog scene generate`` measured on a world it wrote (checked on a grid of
+    the robot's footprint, :mod:`flylog.scene.occupancy`)."""
+
+    family: str  # required: passages, clutter or dead-end
+    seed: int = param(0, help="seed the world was generated from", min=0)
+    reachable: bool = param(True, help="whether a collision-free path to the goal exists")
+    optimal_path_m: float | None = param(
+        None, help="length of the shortest collision-free path (absent: unreachable)", unit="m"
+    )
+    narrowest_gap_m: float | None = param(
+        None, help="twice the smallest clearance along that path", unit="m"
+    )
+    difficulty: float = param(0.0, help="the family's difficulty parameter", min=0.0, max=1.0)
+    check_radius: float = param(
+        0.35, help="footprint radius the path was checked for (robot and margin)", unit="m"
+    )
+
+
+@dataclass(frozen=True)
 class SceneSpec:
     """A whole scene file."""
 
@@ -221,3 +241,6 @@ class SceneSpec:
     sonar: SonarConfig = param(SonarConfig(), help="the sonar ring")
     odometry: OdometryConfig = param(OdometryConfig(), help="odometry and trajectory noise")
     drive: DriveConfig = param(DriveConfig(), help="the driving plan")
+    generated: GeneratedConfig | None = param(
+        None, help="written by `flylog scene generate`: the world's family and checks"
+    )

@@ -52,16 +52,17 @@ class ClosedLoopDriver(Driver, Protocol):
 
     @property
     def finished(self) -> bool:
-        """True once the driver is done (goal reached, or stuck for its timeout): the
-        simulation ends there."""
+        """True once the driver is done (goal reached, goal unreachable, or stuck for its
+        timeout): the simulation ends there."""
 
     @property
     def status(self) -> str:
-        """The driver's status for the summary ('goal_reached', 'stuck', 'driving')."""
+        """The driver's status for the summary ('goal_reached', 'unreachable', 'stuck',
+        'driving')."""
 
     @property
     def ending(self) -> str:
-        """Why the run ends: 'goal_reached', 'stuck' or 'duration'."""
+        """Why the run ends: 'goal_reached', 'unreachable', 'stuck' or 'duration'."""
 
     def observe(self, record: object) -> None:
         """A sensor record was just produced."""
@@ -93,7 +94,7 @@ class SimulationSummary:
     wall_seconds: float
     goal_distance: float  # true distance to the goal at the end (m)
     status: str | None = None  # closed loop: the planner's status at the end
-    ending: str | None = None  # closed loop: 'goal_reached', 'stuck' or 'duration'
+    ending: str | None = None  # closed loop: goal_reached, unreachable, stuck or duration
 
 
 def effective_scene(scene: Scene, options: SimulationOptions) -> Scene:

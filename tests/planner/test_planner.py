@@ -17,8 +17,14 @@ from flylog.planner import (
 )
 from flylog.planner.steering import SmoothedDirection, speed_factor, unicycle_command
 
-# the paper's field and steering: Dirichlet obstacles, along −∇U at the robot, unfiltered
-PAPER = {"obstacle_weight": 1.0, "lookahead": 0.0, "heading_smoothing": 0.0}
+# the paper's field and steering: Dirichlet obstacles, unknown cells free, along −∇U at the
+# robot, unfiltered
+PAPER = {
+    "obstacle_weight": 1.0,
+    "lookahead": 0.0,
+    "heading_smoothing": 0.0,
+    "frontier_field": False,
+}
 SMALL = PlannerConfig(
     extent=6.0, cell_size=0.1, inflation_margin=0.0, confirm_after_views=1, **PAPER
 )
@@ -310,8 +316,15 @@ def _simulate(cfg: PlannerConfig, wall: np.ndarray, start: Pose2D, goal, max_tim
 
 @pytest.mark.parametrize("kind", list(Relaxation), ids=lambda k: k.value)
 def test_end_to_end_robot_drives_around_a_wall_to_the_goal(kind):
+    # unknown cells free: the field leads straight at the goal until the wall is seen (with
+    # frontier_field the robot may go round it without ever looking at it)
     cfg = PlannerConfig(
-        extent=10.0, cell_size=0.1, relaxation=kind, sweeps_per_tick=40, confirm_after_views=1
+        extent=10.0,
+        cell_size=0.1,
+        relaxation=kind,
+        sweeps_per_tick=40,
+        confirm_after_views=1,
+        frontier_field=False,
     )
     # a wall 3 m wide across the straight line from start to goal, seen by the cameras
     ys = np.arange(-1.5, 1.5, 0.02)

@@ -1,4 +1,5 @@
-"""Goal cut off in the map: the planner says so, tries its recoveries in order, then STUCK."""
+"""Goal cut off in the map: the planner says so, tries its recoveries in order, then
+UNREACHABLE."""
 
 import math
 
@@ -24,7 +25,8 @@ def _drive(p, seconds, echoes, dt=0.1, heading=0.0):
     pose, out = Pose2D(0.0, 0.0, heading), []
     for k in range(round(seconds / dt)):
         t = k * dt
-        p.update_obstacles(np.empty((0, 2)), pose, FOV, sonar_xy=echoes)
+        now = echoes(t) if callable(echoes) else echoes
+        p.update_obstacles(np.empty((0, 2)), pose, FOV, sonar_xy=now)
         p.relax()
         cmd = p.command(pose, t)
         out.append((t, cmd, pose))
@@ -44,7 +46,7 @@ def test_an_open_map_needs_no_recovery():
     assert all(c.recovery is Recovery.NONE for _, c, _ in ticks)
 
 
-def test_recoveries_run_in_order_then_the_status_is_stuck():
+def test_recoveries_run_in_order_then_the_goal_is_unreachable():
     p = HarmonicPlanner.centred_on(CFG, (1.0, 0.0), GOAL)
     ring = _ring(0.9)  # echoed every tick: current evidence, never stale
     ticks = _drive(p, 30.0, ring)
@@ -63,8 +65,10 @@ def test_recoveries_run_in_order_then_the_status_is_stuck():
     assert all(c.linear == -CFG.backup_speed and c.angular == 0.0 for c, _ in back)
     start, end = back[0][1], ticks[phases.index(Recovery.EXHAUSTED)][2]
     assert math.hypot(end.x - start.x, end.y - start.y) >= CFG.backup_distance - 1e-9
-    stuck = [c for _, c, _ in ticks if c.recovery is Recovery.EXHAUSTED]
-    assert stuck and all(c.status is Status.STUCK and c.linear == c.angular == 0.0 for c in stuck)
+    spent = [c for _, c, _ in ticks if c.recovery is Recovery.EXHAUSTED]
+    assert spent and all(
+        c.status is Status.UNREACHABLE and c.linear == c.angular == 0.0 for c in spent
+    )
     assert ticks[first - 1][1].status is Status.DRIVING
 
 
@@ -108,3 +112,29 @@ def test_the_sequence_ends_when_the_goal_is_reachable_again():
     p.clear_obstacles()
     cmd = p.command(ticks[-1][2], 5.0)
     assert cmd.recovery is Recovery.NONE and p.recovery is Recovery.NONE
+
+
+def test_cells_seen_during_the_look_around_are_not_stale():
+    """A wall heard on one tick in the middle of the look-around (not at its end) is kept
+    by clear_stale: the goal stays cut off and is reported unreachable."""
+    cfg = PlannerConfig(**{**CFG.__dict__, "clear_free_cells": False})
+    p = HarmonicPlanner.centred_on(cfg, (1.0, 0.0), GOAL)
+    ring = _ring(0.9)
+    p.update_obstacles(np.empty((0, 2)), Pose2D(0.0, 0.0, 0.0), FOV, sonar_xy=ring)
+    ticks = _drive(p, 30.0, lambda t: ring if abs(t - 5.0) < 0.05 else None)
+    phases = [c.recovery for _, c, _ in ticks]
+    assert phases.index(Recovery.LOOK_AROUND) < 50 < phases.index(Recovery.CLEAR_STALE)
+    assert ticks[-1][1].status is Status.UNREACHABLE and p.detected_mask.any()
+
+
+def test_cells_the_look_around_cannot_see_are_not_stale():
+    """As test_clearing_stale_cells_reopens_a_goal_cut_off_by_old_cells, but the ring (1.1
+    m off at its nearest) lies beyond the view range (0.5 m): no view contradicts it, so
+    clear_stale keeps it and the goal is unreachable."""
+    cfg = PlannerConfig(**{**CFG.__dict__, "clear_free_cells": False, "view_range": 0.5})
+    p = HarmonicPlanner.centred_on(cfg, (1.0, 0.0), GOAL)
+    p.update_obstacles(np.empty((0, 2)), Pose2D(0.0, 0.0, 0.0), FOV, sonar_xy=_ring(0.9))
+    ticks = _drive(p, 30.0, None)
+    phases = [c.recovery for _, c, _ in ticks]
+    assert Recovery.CLEAR_STALE in phases and phases[-1] is Recovery.EXHAUSTED
+    assert ticks[-1][1].status is Status.UNREACHABLE and p.detected_mask.any()

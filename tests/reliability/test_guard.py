@@ -186,6 +186,12 @@ CASES: dict[str, list[tuple[list[str], str, str]]] = {
     ],
     # describe prints a table's columns and writes nothing
     "describe": [],
+    # scene generate reads nothing: its output aimed at what it cannot replace, a folder
+    # for one world and a file for the folder of many
+    "scene": [
+        (["scene", "generate", "passages", "-o", "mb"], OUT, "mb"),
+        (["scene", "generate", "clutter", "--seeds", "0-1", "-o", "s.toml"], OUT, "s.toml"),
+    ],
 }
 
 

@@ -126,3 +126,54 @@ def test_a_run_that_reaches_neither_goal_nor_timeout_ends_at_its_duration(tmp_pa
     out = _run(tmp_path, "short.mcap")
     meta = open_log(out).metadata()[contract.REPLAY_METADATA]
     assert meta["ending"] == "duration" and meta["status"] == "driving"
+
+
+BOXED_IN = """
+name = "boxed-in"
+[robot]
+start = [0.0, 0.0, 0.0]
+goal = [3.0, 0.0]
+""" + "".join(
+    f'[[obstacles]]\nkind = "wall"\nstart = {list(a)}\nend = {list(b)}\n'
+    for a, b in (
+        ((-0.8, -0.8), (0.8, -0.8)),
+        ((0.8, -0.8), (0.8, 0.8)),
+        ((0.8, 0.8), (-0.8, 0.8)),
+        ((-0.8, 0.8), (-0.8, -0.8)),
+    )
+)
+
+
+def test_a_robot_walled_in_ends_unreachable(tmp_path):
+    """The sonars hear the four walls round the robot; after the recoveries (a quick
+    look-around here) the goal is still cut off: the run ends UNREACHABLE, not at its
+    duration and not STUCK."""
+    scene = tmp_path / "boxed.toml"
+    scene.write_text(BOXED_IN)
+    config = tmp_path / "quick.toml"
+    config.write_text(
+        "[engine]\nflies = 600\n[planner]\ncut_off_time = 0.3\nmax_angular_speed = 3.0\n"
+    )
+    out = tmp_path / "boxed.mcap"
+    args = [
+        "simulate",
+        str(scene),
+        "-o",
+        str(out),
+        "--duration",
+        "8",
+        "--resolution",
+        "96x72",
+        "--drive",
+        "planner",
+        "--config",
+        str(config),
+    ]
+    result = CliRunner().invoke(cli, args)
+    assert result.exit_code == 0, result.output
+    assert "planner unreachable, run ended by unreachable" in result.output
+    reader = open_log(out)
+    meta = reader.metadata()[contract.REPLAY_METADATA]
+    assert meta["status"] == "unreachable" and meta["ending"] == "unreachable"
+    last = max(m.log_time_ns for m in reader.messages([contract.ODOM]))
+    assert last < 7.0e9
