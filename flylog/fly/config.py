@@ -38,6 +38,11 @@ class Similarity(enum.Enum):
     CONTRAST_ZNCC = "contrast_zncc"
     SAD = "sad"  # sum of absolute differences, (Σ|d|)²/(n·C): removes nothing
 
+    @property
+    def gain_invariant(self) -> bool:
+        """Whether a gain of the right camera leaves the measure unchanged."""
+        return self in (Similarity.ZNCC, Similarity.GAIN_ZSSD, Similarity.CONTRAST_ZNCC)
+
 
 @dataclass(frozen=True)
 class EngineConfig:

@@ -19,11 +19,13 @@ from flylog.io.fingerprint import log_fingerprint
 from flylog.io.tables import TableWriter
 from flylog.io.writer import Compression, LogWriter
 from flylog.replay.clock import ClockConfig, VirtualClock
-from flylog.replay.config import ReplayConfig
+from flylog.replay.config import ReplayConfig, Stereo
 from flylog.replay.estimate import check_sampling_rates, replay_estimate
+from flylog.replay.exposure import ExposureWatch
 from flylog.replay.pipeline import PLANNER_TICK, SNAPSHOT_TICK, FlyPipeline
 from flylog.replay.planner_jobs import STEP_COLUMNS
 from flylog.ros2.config import BagOptions
+from flylog.sensors import StereoPair
 from flylog.sources import input_at
 from flylog.sources.stream import PLANNER_OFF, READ_AHEAD_MESSAGES
 
@@ -146,12 +148,17 @@ def replay(
                 clock_config(config, inputs.frame_period_ns, planner=inputs.has_planner),
             )
             reported_ns = inputs.start_ns
+            watch = ExposureWatch(config.engine.similarity, f"the log {log}")
+            watch.done |= config.stereo is not Stereo.FLIES
             for message in source.records:
+                if isinstance(message.value, StereoPair):
+                    watch.look(message.value.left, message.value.right)
                 clock.feed(message.value)
                 if on_progress is not None and message.log_time_ns >= reported_ns:
                     on_progress((message.log_time_ns - inputs.start_ns) / 1e9, duration)
                     reported_ns = message.log_time_ns + PROGRESS_STEP_NS
             stats = clock.finish(inputs.end_ns)
+            watch.finish()
             if inputs.frames == 1:
                 # the population after all the generations made on the one pair
                 pipeline.tick(SNAPSHOT_TICK, max(stats.now_ns, inputs.end_ns + 1))
