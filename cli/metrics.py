@@ -8,7 +8,10 @@ from typing import Any
 
 import click
 
-from flylog.cli.common import Finite, OutputPath, progress_bar, reports_errors, stdout
+from flylog.cli.common import OutputPath, progress_bar, reports_errors, stdout
+from flylog.cli.config_options import config_option, config_overrides
+
+METRICS = "flylog.metrics.config:MetricsConfig"
 
 # (summary column, label): the unit is the column's (flylog.metrics.tables).
 _SHOWN = (
@@ -102,26 +105,9 @@ def _fmt(value: Any) -> str:
     default=None,
     help="TOML file of metrics thresholds (fields of flylog.metrics.config.MetricsConfig).",
 )
-@click.option(
-    "--tau",
-    type=Finite(0.0, 1.0),
-    default=None,
-    help="Relative depth tolerance of 'on a surface'. [default: 0.05]",
-)
-@click.option(
-    "--goal-tolerance",
-    type=Finite(min=0.0),
-    default=None,
-    metavar="M",
-    help="Distance at which the goal counts as reached. [default: 0.2 m]",
-)
-@click.option(
-    "--rpe-delta",
-    type=Finite(min=0.001),
-    default=None,
-    metavar="S",
-    help="Time step of the relative pose error. [default: 1 s]",
-)
+@config_option(METRICS, "tau", "--tau", metavar="TAU")
+@config_option(METRICS, "goal_tolerance", "--goal-tolerance", metavar="M")
+@config_option(METRICS, "rpe_delta", "--rpe-delta", metavar="S")
 @reports_errors
 def metrics(
     run: Path,
@@ -169,9 +155,7 @@ def metrics(
     config = MetricsConfig()
     if config_file is not None:
         config = from_mapping(MetricsConfig, read_toml(config_file), source=str(config_file))
-    config = replace_dotted(
-        config, {"tau": tau, "goal_tolerance": goal_tolerance, "rpe_delta": rpe_delta}
-    )
+    config = replace_dotted(config, config_overrides())
     with progress_bar(f"metrics {run.name}", unit="s") as update:
         result = score_run(run, log if log is not None else run, config, on_progress=update)
     paths: list[Path] = [*write_metrics(result, output)]

@@ -7,7 +7,6 @@ from pathlib import Path
 import click
 
 from flylog.cli.common import (
-    Finite,
     OutputPath,
     limit_options,
     point,
@@ -15,7 +14,10 @@ from flylog.cli.common import (
     reports_errors,
     stdout,
 )
+from flylog.cli.config_options import config_option, config_overrides
 from flylog.cli.main import freeze_imported_objects
+
+REPLAY = "flylog.replay.config:ReplayConfig"
 
 
 @click.command()
@@ -37,63 +39,13 @@ from flylog.cli.main import freeze_imported_objects
     "[planner], [obstacles], [heading]); the options below override it. [default: built-in "
     "defaults]",
 )
-@click.option(
-    "--engine",
-    "stereo",
-    type=click.Choice(["flies", "sgbm"]),
-    default=None,
-    help="Stereo engine: flies (the fly algorithm) or sgbm (the conventional pipeline: "
-    "OpenCV StereoSGBM on complete frames, frame-synchronous, each frame costing "
-    "sgbm.seconds_per_frame of log time, --flies points per frame, no sonar fusion). "
-    "[default: flies]",
-)
-@click.option(
-    "--seed",
-    type=click.IntRange(min=0),
-    default=None,
-    metavar="N",
-    help="Seed of the engine's random generator. [default: 0]",
-)
-@click.option(
-    "--flies",
-    type=click.IntRange(min=16, max=10_000_000),
-    default=None,
-    metavar="N",
-    help="Population size. [default: 5000]",
-)
-@click.option(
-    "--generations-per-frame",
-    type=click.IntRange(min=0, max=10_000),
-    default=None,
-    metavar="N",
-    help="Run exactly N generations per stereo pair (the paper's experiments use 1); 0 runs "
-    "asynchronously, generations back to back on the newest data (a one-frame log, an "
-    "imported pair: one frame period of virtual compute on it). [default: 0]",
-)
-@click.option(
-    "--evals-per-second",
-    type=Finite(min=1.0, max=1e9),
-    default=None,
-    metavar="X",
-    help="Virtual compute budget in fitness evaluations per second: each generation costs "
-    "its evaluations / X of log time (3.7 M/s: this engine on the 2-core reference "
-    "machine, as SGBM's cost per frame). [default: 3700000]",
-)
-@click.option(
-    "--sync",
-    is_flag=True,
-    default=None,
-    help="Model the conventional pipeline of the paper's Table 1: process only complete "
-    "frames, publish only when processing has ended. [default: off]",
-)
-@click.option(
-    "--snapshot-rate",
-    type=Finite(min=0.01),
-    default=None,
-    metavar="HZ",
-    help="How often flies, potential and path are written, at most 10 times the log's "
-    "camera frame rate. [default: 5 Hz]",
-)
+@config_option(REPLAY, "stereo", "--engine", "stereo")
+@config_option(REPLAY, "seed", "--seed", metavar="N")
+@config_option(REPLAY, "engine.flies", "--flies", metavar="N")
+@config_option(REPLAY, "generations_per_frame", "--generations-per-frame", metavar="N")
+@config_option(REPLAY, "evals_per_second", "--evals-per-second", metavar="X")
+@config_option(REPLAY, "sync", "--sync", flag=True)
+@config_option(REPLAY, "snapshot_rate", "--snapshot-rate", metavar="HZ")
 @click.option(
     "--goal",
     callback=point,
@@ -170,16 +122,9 @@ def replay(
     )
 
     config = load_replay_config(config_file) if config_file else ReplayConfig()
-    overrides = {
-        "seed": seed,
-        "engine.flies": flies,
-        "generations_per_frame": generations_per_frame,
-        "evals_per_second": evals_per_second,
-        "sync": sync,
-        "snapshot_rate": snapshot_rate,
-        # last: the cross-field check (sgbm runs one step per frame) sees the final options
-        "stereo": Stereo(stereo) if stereo is not None else None,
-    }
+    overrides = config_overrides()
+    # last: the cross-field check (sgbm runs one step per frame) sees the final options
+    overrides["stereo"] = overrides.pop("stereo")
     # a ConfigError (a range or a cross-field check, e.g. sgbm with several generations) is
     # one line and exit 2, the option named where the check knows it
     config = replace_dotted(config, overrides)

@@ -206,7 +206,7 @@ def test_help_defaults_match_the_configuration():
     assert f"[default: {cfg.seed}]" in text
     assert f"[default: {cfg.engine.flies}]" in text
     assert f"[default: {cfg.generations_per_frame}]" in text
-    assert f"[default: {cfg.evals_per_second:.0f}]" in text
+    assert f"[default: {cfg.evals_per_second:.0f} evaluations/s]" in text
     assert f"[default: {cfg.snapshot_rate:g} Hz]" in text
 
 
