@@ -41,10 +41,10 @@ import numpy as np
 
 from flylog.baseline.config import SgbmConfig, SgbmMode
 from flylog.errors import FlylogError
-from flylog.fly.fusion import moved_by_odometry
 from flylog.fly.population import Population
 from flylog.fly.stats import GenerationStats
 from flylog.geometry import Pose2D, StereoRig, compose
+from flylog.geometry.proprioception import moved_by_odometry
 from flylog.sensors import SonarReading, StereoPair
 
 # The largest integer a float32 /flies cloud stores exactly: above any sensible min_age.

@@ -10,7 +10,7 @@ import numba
 import numpy as np
 
 from flylog.fly.fitness import fitness_serial
-from flylog.geometry import Pose2D, StereoRig, inverse, transform_points_2d
+from flylog.geometry import StereoRig
 from flylog.geometry.kernels import RIG_SIZE, project
 from flylog.sensors import SonarReading
 
@@ -287,28 +287,6 @@ def sonar_immigrants(
         if sum(map(len, batches)) >= n:
             break
     return np.concatenate(batches)[:n]
-
-
-def moved_by_odometry(xyz: np.ndarray, increment: Pose2D) -> np.ndarray:
-    """Proprioception as an operator: the flies, fixed in the world, seen from the robot
-    after it moved by ``increment`` (the odometry increment ``relative(prev, new)``)."""
-    return transform_points_2d(inverse(increment), xyz)
-
-
-def move_by_odometry(xyz: np.ndarray, increment: Pose2D) -> None:
-    """:func:`moved_by_odometry` in place, compiled (the same numbers: the same scalar cos and
-    sin, the same operations in the same order), for C-contiguous float64 ``xyz`` (N, 3)."""
-    pose = inverse(increment)
-    _move_kernel(xyz, pose.x, pose.y, math.cos(pose.theta), math.sin(pose.theta))
-
-
-@numba.njit(cache=True, nogil=True)
-def _move_kernel(xyz, x, y, c, s):  # pragma: no cover - compiled
-    """transform_points_2d's arithmetic, in place."""
-    for i in range(xyz.shape[0]):
-        px, py = xyz[i, 0], xyz[i, 1]
-        xyz[i, 0] = x + c * px - s * py
-        xyz[i, 1] = y + s * px + c * py
 
 
 @numba.njit(cache=True, nogil=True)

@@ -43,13 +43,13 @@ import numpy as np
 
 from flylog.fly.config import Similarity
 from flylog.fly.fitness import as_planes, rig_constants
-from flylog.fly.fusion import moved_by_odometry
 from flylog.fly.heading_config import HeadingConfig
 from flylog.fly.measure import Measure, dissimilarity, patch_sums
 from flylog.fly.measures import measure_of
 from flylog.fly.population import Population
 from flylog.geometry import Pose2D, StereoRig, relative
 from flylog.geometry.kernels import CX, CX_RIGHT, CY, FOCAL, optical
+from flylog.geometry.proprioception import moved_by_odometry
 from flylog.sensors import StereoPair
 
 KEYFRAME_FLIES = 3  # flies kept with a keyframe, per one compared (some leave the view)

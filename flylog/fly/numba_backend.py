@@ -10,13 +10,14 @@ import numpy as np
 
 from flylog.fly.bundles import Breeding, Fusion, Scratch, Selection
 from flylog.fly.fitness import PARALLEL_MIN_EVALUATIONS, fitness_into
-from flylog.fly.fusion import arc_constants, move_by_odometry, score_into
+from flylog.fly.fusion import arc_constants, score_into
 from flylog.fly.generation import generations_kernel
 from flylog.fly.neighbours import NeighbourCounter
 from flylog.fly.operators import newcomer_constants
 from flylog.fly.state import SONAR_TRIES, EngineState
 from flylog.fly.stats import GenerationStats
 from flylog.geometry import Pose2D
+from flylog.geometry.proprioception import move_by_odometry
 
 
 class NumbaBackend:

@@ -8,13 +8,14 @@ from __future__ import annotations
 import numpy as np
 
 from flylog.fly.fitness import INVALID_FITNESS, fitness_numpy
-from flylog.fly.fusion import moved_by_odometry, sonar_fused, sonar_immigrants
+from flylog.fly.fusion import sonar_fused, sonar_immigrants
 from flylog.fly.neighbours import neighbour_counts_numpy
 from flylog.fly.operators import newcomers_numpy
 from flylog.fly.selection import shared_fitness, survivor_indices
 from flylog.fly.state import SONAR_TRIES, EngineState
 from flylog.fly.stats import GenerationStats
 from flylog.geometry import Pose2D
+from flylog.geometry.proprioception import moved_by_odometry
 from flylog.sensors import SonarReading
 
 

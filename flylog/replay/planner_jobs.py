@@ -13,9 +13,9 @@ from typing import Any
 
 import numpy as np
 
-from flylog.fly.fusion import moved_by_odometry
 from flylog.fly.population import Population
 from flylog.geometry import Pose2D, StereoRig, relative, transform_points_2d
+from flylog.geometry.proprioception import moved_by_odometry
 from flylog.io import contract, encode
 from flylog.io.tables import Column, table_row
 from flylog.planner import HarmonicPlanner

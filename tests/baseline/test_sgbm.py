@@ -20,9 +20,9 @@ from flylog.baseline.sgbm import (
 from flylog.config import from_mapping
 from flylog.errors import ConfigError, FlylogError
 from flylog.fly import ObstacleFlies
-from flylog.fly.fusion import moved_by_odometry
 from flylog.fly.population import fitness_summary
 from flylog.geometry import Pose2D, StereoRig
+from flylog.geometry.proprioception import moved_by_odometry
 from flylog.sensors import SonarReading, StereoPair
 
 SCENES = Path(__file__).resolve().parents[2] / "fixtures" / "scenes"

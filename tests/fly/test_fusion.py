@@ -7,7 +7,6 @@ from hypothesis import strategies as st
 
 from flylog.fly.fusion import (
     fired_sonars,
-    moved_by_odometry,
     sonar_confirmations,
     sonar_confirmations_numba,
     sonar_confirmations_numpy,
@@ -17,6 +16,7 @@ from flylog.fly.fusion import (
     sonar_immigrants,
 )
 from flylog.geometry import Pose2D, StereoRig, compose
+from flylog.geometry.proprioception import moved_by_odometry
 from flylog.sensors import SonarConfig, SonarReading
 
 RIG = StereoRig()
@@ -207,7 +207,7 @@ def test_fuse_into_writes_only_the_given_flies():
 
 
 def test_move_in_place_equals_moved_bit_for_bit():
-    from flylog.fly.fusion import move_by_odometry
+    from flylog.geometry.proprioception import move_by_odometry
 
     rng = np.random.default_rng(3)
     xyz = rng.uniform(-5, 5, (1000, 3))

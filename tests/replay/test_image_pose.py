@@ -64,8 +64,8 @@ def test_published_flies_carry_the_pose_of_their_images_not_the_newest_odometry(
 
 def test_the_flies_snapshot_is_in_base_link_at_the_newest_odometry(monkeypatch):
     # scored where the images were taken (50 ms), published where the robot is (140 ms)
-    from flylog.fly.fusion import moved_by_odometry
     from flylog.geometry import relative
+    from flylog.geometry.proprioception import moved_by_odometry
     from flylog.io import encode
 
     sent = []  # the clouds as they go to the /flies encoder
