@@ -105,7 +105,7 @@ class NumbaBackend:
 
     def _selection(self) -> Selection:
         st = self._state
-        grid, ints, uv = self._counter.scratch(st.config.flies)
+        grid, ints, floats = self._counter.scratch(st.config.flies)
         return Selection(
             survivors=st.survivors,
             sharing=st.sharing,
@@ -114,7 +114,7 @@ class NumbaBackend:
             radius=st.radius,
             grid=grid,
             ints=ints,
-            uv=uv,
+            floats=floats,
             counts=self._counter.counts,
         )
 
