@@ -33,9 +33,15 @@ _CELLS_PER_FLY = 8
 _MIN_CELLS = 16
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _padded(n):  # pragma: no cover - compiled
+    """``n`` rounded up to a multiple of 4: the cells :func:`_running_sum` walks."""
+    return (n + 3) // 4 * 4
+
+
 def grid_buffer_size(n: int) -> int:
     """Length of the integer scratch ``grid`` the counting kernels need for ``n`` flies."""
-    return _CELLS_PER_FLY * n + _MIN_CELLS + 1
+    return int(_padded(_CELLS_PER_FLY * n + _MIN_CELLS + 1))
 
 
 # Scratch rows past the last fly: the 4-lane tests read up to 8 flies past a run's start.
@@ -103,6 +109,34 @@ def _add_lanes(typingctx, near, start, mask):
     return types.int64(near, start, mask), codegen
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _running_sum(cells, n):  # pragma: no cover - compiled
+    """``cells[:n]`` replaced by its running sum (``cells`` holds ``_padded(n)`` values, those
+    past ``n`` zero), as four interleaved quarters, each from its own start: four independent
+    chains of additions instead of one: 0.95× the counts' thread CPU time at 5000 flies and
+    R = 3.4 px, where the grid has ~27 000 cells, 5.4 a fly."""
+    quarter = _padded(n) // 4
+    start1 = 0
+    for q in range(quarter):
+        start1 += cells[q]
+    start2 = start1
+    for q in range(quarter, 2 * quarter):
+        start2 += cells[q]
+    start3 = start2
+    for q in range(2 * quarter, 3 * quarter):
+        start3 += cells[q]
+    c0, c1, c2, c3 = 0, start1, start2, start3
+    for q in range(quarter):
+        c0 += cells[q]
+        cells[q] = c0
+        c1 += cells[q + quarter]
+        cells[q + quarter] = c1
+        c2 += cells[q + 2 * quarter]
+        cells[q + 2 * quarter] = c2
+        c3 += cells[q + 3 * quarter]
+        cells[q + 3 * quarter] = c3
+
+
 @numba.njit(cache=True, nogil=True)
 def _grid_counts(pu, pv, pidx, m, radius, grid, ints, su, sv, counts):  # pragma: no cover
     """Adds to ``counts[pidx[t]]`` the neighbours of the ``m`` valid flies at (pu[t], pv[t]).
@@ -137,20 +171,17 @@ def _grid_counts(pu, pv, pidx, m, radius, grid, ints, su, sv, counts):  # pragma
     stride = n_cols + 3
     n_cells = stride * (n_rows + 1)
     starts = grid[: n_cells + 1]
-    starts[:] = 0
+    grid[: _padded(n_cells + 1)] = 0
     for t in range(m):
         q = int((pv[t] - vmin) * inv) * stride + int((pu[t] - umin) * inv) + 1
         cell[t] = q
         starts[q] += 1
-    total = 0
-    for q in range(n_cells + 1):
-        total += starts[q]
-        starts[q] = total  # the end of cell q, for now
+    _running_sum(grid, n_cells + 1)  # the end of cell q, for now
     for t in range(m - 1, -1, -1):  # backwards, so stable; each end becomes its cell's start
         q = cell[t]
         at = starts[q] - 1
         starts[q] = at
-        order[at] = t
+        order[at] = pidx[t]
         su[at] = pu[t]
         sv[at] = pv[t]
         sorted_cell[at] = q
@@ -184,7 +215,7 @@ def _grid_counts(pu, pv, pidx, m, radius, grid, ints, su, sv, counts):  # pragma
             near[t] += hit
         near[s] += found
     for s in range(m):
-        counts[pidx[order[s]]] += near[s]
+        counts[order[s]] += near[s]
 
 
 @numba.njit(cache=True, nogil=True)
