@@ -149,9 +149,10 @@ def _grid_counts(pu, pv, pidx, m, radius, grid, ints, su, sv, counts):  # pragma
     below. Their bounds are cell starts: no search. Each run is tested 4 flies at a time in
     vector lanes, masked to the run (the first 4 of the first run, the first 8 of the second,
     then a loop for the rest): a loop over each run's length exits at a different count for
-    every fly, which the branch predictor misses on fresh flies every generation (the pair
-    tests took 72 of the counts' ~120 µs at 5000 flies that way, 0.64× of the whole with the
-    lanes). ``ints`` is (4, ≥ m + 8) int32 scratch, ``su`` and ``sv`` (≥ m + 8) float64."""
+    every fly, which the branch predictor misses on fresh flies every generation: with such
+    loops the pair tests take 72 of the counts' ~120 µs at 5000 flies, with the lanes the
+    counts take 0.64× that (docs/engine.md). ``ints`` is (4, ≥ m + 8) int32 scratch, ``su``
+    and ``sv`` (≥ m + 8) float64."""
     cell, order, near, sorted_cell = ints[0], ints[1], ints[2], ints[3]
     umin, vmin, umax, vmax = np.inf, np.inf, -np.inf, -np.inf
     for t in range(m):
