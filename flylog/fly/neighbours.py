@@ -63,6 +63,8 @@ def _near_lanes(typingctx, su, sv, start, ua, va, r2, count):
     """A 4-bit mask: bit j set when j < ``count`` and (ua − su[start + j])² + (va −
     sv[start + j])² <= r2, the scalar test's operations in its order on one 4-lane vector
     (the same IEEE results). Reads su and sv at start … start + 3 whatever ``count``."""
+    if su.dtype != types.float64 or sv.dtype != types.float64:
+        return None  # a typing error: the lanes are read as float64
 
     def codegen(context, builder, signature, args):
         su_, sv_, start_, ua_, va_, r2_, count_ = args
