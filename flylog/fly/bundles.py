@@ -59,7 +59,7 @@ class Selection(NamedTuple):
     radius: float
     grid: np.ndarray
     ints: np.ndarray
-    uv: np.ndarray
+    floats: np.ndarray
     counts: np.ndarray
 
 

@@ -106,7 +106,7 @@ class NumbaBackend:
 
     def _selection(self) -> Selection:
         st = self._state
-        grid, ints, uv = self._counter.scratch(st.config.flies)
+        grid, ints, floats = self._counter.scratch(st.config.flies)
         return Selection(
             survivors=st.survivors,
             sharing=st.sharing,
@@ -115,7 +115,7 @@ class NumbaBackend:
             radius=st.radius,
             grid=grid,
             ints=ints,
-            uv=uv,
+            floats=floats,
             counts=self._counter.counts,
         )
 

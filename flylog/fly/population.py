@@ -121,7 +121,7 @@ class Population:
         :func:`~flylog.fly.fitness.rig_constants`, scratch from ``counter``; the counts are
         left in ``counter.counts``)."""
         self._check_select(out, work)
-        grid, ints, uv = counter.scratch(len(self))
+        grid, ints, floats = counter.scratch(len(self))
         selection = Selection(
             survivors=keep,
             sharing=True,
@@ -130,7 +130,7 @@ class Population:
             radius=float(radius),
             grid=grid,
             ints=ints,
-            uv=uv,
+            floats=floats,
             counts=counter.counts,
         )
         return select_into_kernel(selection, consts, self.flies(), out.flies())
@@ -165,7 +165,7 @@ def select_into_kernel(se, k, a, b):  # pragma: no cover - compiled
     score = se.work[:n]
     if se.sharing:
         fly_neighbour_counts_into(
-            a.xyz, k, a.fitness, se.radius, se.grid, se.ints, se.uv, se.counts
+            a.xyz, k, a.fitness, se.radius, se.grid, se.ints, se.floats, se.counts
         )
         shared_fitness_into(a.fitness, se.counts, se.coefficient, se.work[n:], score)
     else:

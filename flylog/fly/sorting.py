@@ -15,6 +15,11 @@ _RADIX_BITS = 8
 _RADIX_BINS = 1 << _RADIX_BITS
 # Below this many candidates a radix pass costs more than sorting them.
 _FEW = 16
+# Digit histograms a pass fills in turn (the loop below is written for four). On the engine's
+# own fitness (5000 flies, 400 generations, thread CPU time, medians, same run): the selection
+# cut 0.78× the time of one histogram (9.4 against 12.1 µs), sharing's median 0.92× (8.6
+# against 9.3 µs); on 5000 lognormal values 0.60× (8.2 against 13.7 µs).
+_HISTOGRAMS = 4
 
 
 @numba.njit(cache=True, nogil=True)
@@ -45,19 +50,28 @@ def select_radix(values, k, keys):  # pragma: no cover - compiled
     spread = common ^ differ
     while top > 0 and not (spread >> np.uint64(top)) & np.uint64(1):
         top -= 1
-    counts = np.empty(_RADIX_BINS, dtype=np.int64)
+    # Four histograms, one per key of every four: keys close in value share a digit, and
+    # one histogram's increments of the same bin wait for each other through memory.
+    counts = np.empty((_HISTOGRAMS, _RADIX_BINS), dtype=np.int64)
     mask = np.uint64(_RADIX_BINS - 1)
     m = n
     shift = max(top + 1 - _RADIX_BITS, 0)
     while m > _FEW and spread != zero:
         s = np.uint64(shift)
         counts[:] = 0
-        for i in range(m):
-            counts[(keys[i] >> s) & mask] += 1
+        for i in range(0, m - m % _HISTOGRAMS, _HISTOGRAMS):
+            counts[0, (keys[i] >> s) & mask] += 1
+            counts[1, (keys[i + 1] >> s) & mask] += 1
+            counts[2, (keys[i + 2] >> s) & mask] += 1
+            counts[3, (keys[i + 3] >> s) & mask] += 1
+        for i in range(m - m % _HISTOGRAMS, m):
+            counts[0, (keys[i] >> s) & mask] += 1
         d = 0
-        while k >= counts[d]:
-            k -= counts[d]
+        c = counts[0, 0] + counts[1, 0] + counts[2, 0] + counts[3, 0]
+        while k >= c:
+            k -= c
             d += 1
+            c = counts[0, d] + counts[1, d] + counts[2, d] + counts[3, d]
         digit = np.uint64(d)
         t = 0
         for i in range(m):

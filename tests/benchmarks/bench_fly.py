@@ -438,7 +438,7 @@ def _stage_figures(pair, reading, rig) -> list[dict]:
                       height, sc.row_scratch)  # fmt: skip
         timed(f"fitness, {what}", score_into, im, measure, fu, a, index, index)
         timed("neighbour counts (grid)", fly_neighbour_counts_into, a.xyz, im.k, a.fitness,
-              se.radius, se.grid, se.ints, se.uv, se.counts)  # fmt: skip
+              se.radius, se.grid, se.ints, se.floats, se.counts)  # fmt: skip
         score = se.work[:n]
         timed("sharing (median)", shared_fitness_into, a.fitness, se.counts, se.coefficient,
               se.work[n:], score)  # fmt: skip

@@ -292,3 +292,22 @@ def test_fly_counts_equal_the_reference_on_projected_flies():
     fly_neighbour_counts_into(xyz, rig_constants(RIG), fitness, radius, *counter.scratch(3000),
                               counts)  # fmt: skip
     np.testing.assert_array_equal(counts, expected)
+
+
+@pytest.mark.parametrize("crowd", [1, 3, 4, 5, 8, 9, 30])
+def test_counts_for_every_crowding_of_the_cells(crowd):
+    # The grid tests the first 4 flies of a fly's own run and the first 8 of the run below
+    # in vector lanes and the rest in a loop: `crowd` flies in each cell of a 4×4 block of
+    # R-cells, and sparse flies round them, take the lanes alone, the lanes and the loops.
+    rng = np.random.default_rng(crowd)
+    radius = 2.0
+    corners = np.arange(4) * radius + 10.0
+    cu, cv = (c.ravel() for c in np.meshgrid(corners, corners))
+    u = np.concatenate([np.repeat(cu, crowd) + rng.uniform(0, radius, 16 * crowd),
+                        rng.uniform(0, 40, 60)])  # fmt: skip
+    v = np.concatenate([np.repeat(cv, crowd) + rng.uniform(0, radius, 16 * crowd),
+                        rng.uniform(0, 40, 60)])  # fmt: skip
+    valid = rng.random(len(u)) < 0.95
+    expected = neighbour_counts_numpy(u, v, valid, radius)
+    assert expected.max() >= crowd - 1  # the crowded cells count: the test can fail
+    np.testing.assert_array_equal(neighbour_counts_numba(u, v, valid, radius), expected)
