@@ -36,7 +36,8 @@ class CameraPreset(enum.Enum):
 
 @dataclass(frozen=True)
 class CameraDefects:
-    """A stereo camera's exposure, gain, response, noise, vignetting and blur."""
+    """What a real camera does to the light before its 8-bit image (applied by
+    :mod:`flylog.sim.camera`)."""
 
     ideal: bool = param(
         True,
@@ -137,7 +138,9 @@ class CameraDefects:
     motion_samples: int = param(
         4,
         help="motion blur: renders averaged over the exposure, at poses spread evenly "
-        "over it along the robot's commanded motion (1: none)",
+        "over it along the robot's commanded motion (1: none); at 0.5 m/s and 45 deg/s on "
+        "corridor (320x240, 8 ms) the mean of 4 is within 0.7 DN rms of the mean of 32, "
+        "a single render 3.0 DN",
         min=1,
         max=64,
     )
