@@ -87,16 +87,15 @@ def gaussian_blur(image: np.ndarray, sigma: float) -> np.ndarray:
         return image
     kernel = gaussian_kernel(sigma)
     reach = len(kernel) // 2
-    out = image
-    for axis in (0, 1):
-        pad = [(0, 0)] * image.ndim
-        pad[axis] = (reach, reach)
-        padded = np.pad(out, pad, mode="reflect")
-        n = out.shape[axis]
-        acc = np.zeros_like(out)
-        for t, weight in enumerate(kernel):
-            acc += weight * np.take(padded, np.arange(t, t + n), axis=axis)
-        out = acc
+    height, width = image.shape[:2]
+    rows = np.pad(image, ((reach, reach), (0, 0), (0, 0)), mode="reflect")
+    out = np.zeros_like(image)
+    for t, weight in enumerate(kernel):
+        out += weight * rows[t : t + height]
+    cols = np.pad(out, ((0, 0), (reach, reach), (0, 0)), mode="reflect")
+    out = np.zeros_like(image)
+    for t, weight in enumerate(kernel):
+        out += weight * cols[:, t : t + width]
     return out
 
 

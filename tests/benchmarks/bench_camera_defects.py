@@ -8,7 +8,7 @@ every other setting at its default) and with ``--engine sgbm``, then `flylog met
 flies' (or SGBM's points') precision, recall and F-score against the scene's truth.
 
 A condition other than ``ideal`` runs the camera model with every defect at its neutral
-value except its group's, which keep the realistic defaults
+value except its group's, which keep the realistic defaults (``model_only``: none)
 (:class:`flylog.sim.camera_defects.CameraDefects`); the exposure, white flux and gain keep
 theirs everywhere, so every non-ideal condition has the realistic signal level (a white
 surface at about 60 % of 255 DN) and its requantisation.
@@ -50,6 +50,7 @@ NEUTRAL = {
     "motion_samples": 1,
 }
 GROUPS = {
+    "model_only": (),  # the realistic signal level and its requantisation, no defect
     "exposure_gain": ("right_gain_ratio", "drift_sd"),
     "gamma": ("gamma",),
     "noise": ("shot_noise", "read_noise_e", "dsnu_e", "prnu"),

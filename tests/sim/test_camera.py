@@ -198,3 +198,18 @@ def test_presets():
     assert CameraDefects().ideal
     realistic = CameraDefects.preset(CameraPreset.REALISTIC)
     assert not realistic.ideal and realistic.read_noise_e > 0 and realistic.motion_samples > 1
+
+
+@pytest.mark.parametrize("sigma", [0.6, 2.0])
+def test_gaussian_blur_is_the_separable_convolution_with_mirrored_borders(sigma):
+    rng = np.random.default_rng(4)
+    image = rng.random((12, 17, 3))
+    kernel = gaussian_kernel(sigma)
+    reach = len(kernel) // 2
+    padded = np.pad(image, ((reach, reach), (reach, reach), (0, 0)), mode="reflect")
+    want = np.zeros_like(image)
+    for i in range(image.shape[0]):
+        for j in range(image.shape[1]):
+            window = padded[i : i + 2 * reach + 1, j : j + 2 * reach + 1]
+            want[i, j] = np.einsum("a,b,abc->c", kernel, kernel, window)
+    np.testing.assert_allclose(gaussian_blur(image, sigma), want, rtol=1e-12, atol=1e-14)
