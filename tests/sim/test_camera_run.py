@@ -9,6 +9,7 @@ from click.testing import CliRunner
 from flylog.cli.main import cli
 from flylog.io import contract
 from flylog.io.reader import open_log
+from flylog.sim.camera_defects import CameraDefects
 
 FIXTURES = Path(__file__).resolve().parents[2] / "fixtures"
 CORRIDOR = FIXTURES / "scenes" / "corridor.toml"
@@ -95,3 +96,22 @@ def test_an_exposure_longer_than_the_frame_period_names_the_fix(tmp_path):
     result = _simulate(scene, tmp_path / "bad.mcap", *SMALL, "--frame-rate", "30")
     assert result.exit_code == 2
     assert "longer than the frame period (33.3333 ms at 30 Hz)" in " ".join(result.output.split())
+
+
+def test_the_defect_studys_conditions_are_valid_tables_turning_on_their_group_only():
+    from flylog.scene.load import parse_scene
+    from tests.benchmarks.bench_camera_defects import CONDITIONS, GROUPS, NEUTRAL, defects_table
+
+    typical = CameraDefects(ideal=False)
+    for condition in CONDITIONS:
+        text = CORRIDOR.read_text() + "\n" + defects_table(condition)
+        defects = parse_scene(text, source=condition).spec.camera_defects
+        assert defects.ideal == (condition == "ideal")
+        if condition in GROUPS:
+            for name, neutral in NEUTRAL.items():
+                want = getattr(typical, name) if name in GROUPS[condition] else neutral
+                assert getattr(defects, name) == want, (condition, name)
+    assert (
+        parse_scene(CORRIDOR.read_text() + "\n" + defects_table("all"), "all").spec.camera_defects
+        == typical
+    )
