@@ -54,6 +54,8 @@ GROUPS = {
     "exposure_gain": ("right_gain_ratio", "drift_sd"),
     "gamma": ("gamma",),
     "noise": ("shot_noise", "read_noise_e", "dsnu_e", "prnu"),
+    "temporal_noise": ("shot_noise", "read_noise_e"),  # noise's two parts, apart
+    "fixed_pattern": ("dsnu_e", "prnu"),
     "vignetting": ("vignetting_corner",),
     "optical_blur": ("psf_sigma_px",),
     "motion_blur": ("motion_samples",),
