@@ -3,8 +3,10 @@
 For each condition (the ideal camera, one defect group of the realistic camera at a time,
 then all of them) and each simulation seed, `flylog simulate corridor` (10 s, 320×240,
 ``--camera`` through a scene file with the condition's ``[camera_defects]`` table), then
-`flylog replay` with each similarity measure (``--config`` setting ``engine.similarity``,
-every other setting at its default) and with ``--engine sgbm``, then `flylog metrics`: the
+`flylog replay` with each similarity measure on the images as they come (``--config``
+setting ``engine.similarity`` and ``engine.photometric = "none"``, every other setting at its
+default), with the default configuration (photometric matching, zssd) and with
+``--engine sgbm``, then `flylog metrics`: the
 flies' (or SGBM's points') precision, recall and F-score against the scene's truth.
 
 A condition other than ``ideal`` runs the camera model with every defect at its neutral
@@ -35,7 +37,13 @@ SECONDS = 10.0
 RESOLUTION = "320x240"
 SEEDS = (0, 1, 2)
 MEASURES = ("zssd", "contrast_zncc", "gain_zssd", "zncc")
-ENGINES = (*MEASURES, "sgbm")
+ENGINES = ("default", *MEASURES, "sgbm")
+# The replay configuration of each engine: the measures alone, on the images as they come
+# (engine.photometric = "none"), and the default (photometric matching, zssd).
+ENGINE_TABLES = {
+    "default": "",
+    **{m: f'[engine]\nsimilarity = "{m}"\nphotometric = "none"\n' for m in MEASURES},
+}
 # Every defect at its neutral value: a condition turns its group back to the defaults.
 NEUTRAL = {
     "right_gain_ratio": 1.0,
@@ -102,12 +110,15 @@ def study(
     rows = []
     for condition in conditions:
         scene = work / f"corridor_{condition}.toml"
-        scene.write_text(SCENE.read_text() + "\n" + defects_table(condition))
+        scene.write_text(_without_defects(SCENE.read_text()) + "\n" + defects_table(condition))
         for seed in seeds:
             log = work / f"{condition}_s{seed}.mcap"
             t0 = time.perf_counter()
-            _flylog("simulate", str(scene), "-o", str(log), "--duration", str(seconds),
-                    "--resolution", resolution, "--seed", str(seed))  # fmt: skip
+            _flylog(
+                "simulate",
+                *(str(scene), "-o", str(log), "--duration", str(seconds)),
+                *("--resolution", resolution, "--seed", str(seed)),
+            )
             sim_wall = time.perf_counter() - t0
             for engine in engines:
                 run = work / f"{condition}_s{seed}_{engine}.mcap"
@@ -115,10 +126,10 @@ def study(
                     _flylog("replay", str(log), "-o", str(run), "--engine", "sgbm")
                 else:
                     config = work / f"{engine}.toml"
-                    config.write_text(f'[engine]\nsimilarity = "{engine}"\n')
+                    config.write_text(ENGINE_TABLES[engine])
                     _flylog("replay", str(log), "-o", str(run), "--config", str(config))
-                row = {"condition": condition, "seed": seed, "engine": engine,
-                       "simulate_wall_s": sim_wall, **_scores(run, log)}  # fmt: skip
+                row = {"condition": condition, "seed": seed, "engine": engine}
+                row |= {"simulate_wall_s": sim_wall, **_scores(run, log)}
                 rows.append(row)
                 with open(out_dir / "camera_defects.jsonl", "a") as fh:
                     fh.write(json.dumps(row) + "\n")
@@ -149,6 +160,18 @@ def figures(rows: list[dict]) -> list[dict]:
                 }
             )
     return out
+
+
+def _without_defects(scene_text: str) -> str:
+    """A scene file's text without its ``[camera_defects]`` table (the condition's replaces
+    it)."""
+    lines, keep = [], True
+    for line in scene_text.splitlines():
+        if line.startswith("["):
+            keep = line.strip() != "[camera_defects]"
+        if keep:
+            lines.append(line)
+    return "\n".join(lines) + "\n"
 
 
 def run(out_dir: Path) -> list[dict]:
