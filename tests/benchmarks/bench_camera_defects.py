@@ -110,7 +110,7 @@ def study(
     rows = []
     for condition in conditions:
         scene = work / f"corridor_{condition}.toml"
-        scene.write_text(_without_defects(SCENE.read_text()) + "\n" + defects_table(condition))
+        scene.write_text(without_defects(SCENE.read_text()) + "\n" + defects_table(condition))
         for seed in seeds:
             log = work / f"{condition}_s{seed}.mcap"
             t0 = time.perf_counter()
@@ -162,7 +162,7 @@ def figures(rows: list[dict]) -> list[dict]:
     return out
 
 
-def _without_defects(scene_text: str) -> str:
+def without_defects(scene_text: str) -> str:
     """A scene file's text without its ``[camera_defects]`` table (the condition's replaces
     it)."""
     lines, keep = [], True

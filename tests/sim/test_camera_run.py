@@ -10,6 +10,7 @@ from flylog.cli.main import cli
 from flylog.io import contract
 from flylog.io.reader import open_log
 from flylog.sim.camera_defects import CameraDefects
+from tests.benchmarks.bench_camera_defects import without_defects
 
 FIXTURES = Path(__file__).resolve().parents[2] / "fixtures"
 CORRIDOR = FIXTURES / "scenes" / "corridor.toml"
@@ -33,7 +34,7 @@ def _simulate(scene, out, *args):
 
 def _scene_with(tmp_path, table: str) -> Path:
     scene = tmp_path / "corridor.toml"
-    scene.write_text(CORRIDOR.read_text() + "\n[camera_defects]\n" + table)
+    scene.write_text(without_defects(CORRIDOR.read_text()) + "\n[camera_defects]\n" + table)
     return scene
 
 
@@ -60,7 +61,10 @@ def test_realistic_cameras_same_seed_same_images_and_the_metadata_says_so(tmp_pa
     assert _images(logs["a"]) == _images(logs["b"])
     assert _images(logs["a"]) != _images(logs["c"])
     ideal = tmp_path / "ideal.mcap"
-    assert _simulate(CORRIDOR, ideal, *SMALL, "--seed", "1").exit_code == 0
+    assert _simulate(CORRIDOR, ideal, *SMALL, "--seed", "1", "--camera", "ideal").exit_code == 0
+    bundled = tmp_path / "bundled.mcap"  # the bundled scene's own table: realistic
+    assert _simulate(CORRIDOR, bundled, *SMALL, "--seed", "1").exit_code == 0
+    assert _images(bundled) == _images(logs["a"])
     assert _images(ideal) != _images(logs["a"])
     meta = open_log(logs["a"]).metadata()[contract.SIMULATION_METADATA]
     defects = json.loads(meta["camera_defects"])
@@ -104,7 +108,7 @@ def test_the_defect_studys_conditions_are_valid_tables_turning_on_their_group_on
 
     typical = CameraDefects(ideal=False)
     for condition in CONDITIONS:
-        text = CORRIDOR.read_text() + "\n" + defects_table(condition)
+        text = without_defects(CORRIDOR.read_text()) + "\n" + defects_table(condition)
         defects = parse_scene(text, source=condition).spec.camera_defects
         assert defects.ideal == (condition == "ideal")
         if condition in GROUPS:
@@ -112,6 +116,8 @@ def test_the_defect_studys_conditions_are_valid_tables_turning_on_their_group_on
                 want = getattr(typical, name) if name in GROUPS[condition] else neutral
                 assert getattr(defects, name) == want, (condition, name)
     assert (
-        parse_scene(CORRIDOR.read_text() + "\n" + defects_table("all"), "all").spec.camera_defects
+        parse_scene(
+            without_defects(CORRIDOR.read_text()) + "\n" + defects_table("all"), "all"
+        ).spec.camera_defects
         == typical
     )
