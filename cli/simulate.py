@@ -93,6 +93,15 @@ from flylog.geometry.stereo import MAX_FRAME_RATE
     "f·B/Z − doffs). [default: the scene's camera.doffs, 0]",
 )
 @click.option(
+    "--camera",
+    "camera_model",
+    type=click.Choice(["realistic", "ideal"]),
+    default=None,
+    help="The cameras' model, replacing the scene's [camera_defects] table: realistic "
+    "(exposure, gain, drift, gamma, noise, vignetting and blur at their typical values) or "
+    "ideal (the renderer's images as they are). [default: the scene's table, else ideal]",
+)
+@click.option(
     "--compression",
     type=click.Choice(["zstd", "lz4", "none"]),
     default="zstd",
@@ -130,6 +139,7 @@ def simulate(
     roll: float | None,
     principal_point: tuple[float, float] | None,
     doffs: float | None,
+    camera_model: str | None,
     compression: str,
     drive: str,
     config_file: Path | None,
@@ -147,6 +157,7 @@ def simulate(
     from flylog.io.writer import Compression, LogConfig
     from flylog.scene.bundled import resolve_scene
     from flylog.scene.load import load_scene
+    from flylog.sim.camera_defects import CameraDefects, CameraPreset
     from flylog.sim.run import SimulationOptions
     from flylog.sim.run import simulate as run_simulation
 
@@ -173,6 +184,9 @@ def simulate(
                 ("doffs", doffs),
             )
             if value is not None
+        ),
+        camera_defects=(
+            None if camera_model is None else CameraDefects.preset(CameraPreset(camera_model))
         ),
     )
     make_driver = None

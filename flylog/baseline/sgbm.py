@@ -170,8 +170,9 @@ class SgbmEngine:
 
     # --- inputs -----------------------------------------------------------------------------
 
-    def set_images(self, pair: StereoPair) -> None:
-        """Process this pair at the next ``step``."""
+    def set_images(self, pair: StereoPair) -> StereoPair:
+        """Process this pair at the next ``step`` (returned as it is: SGBM matches it
+        unchanged)."""
         left, right = np.asarray(pair.left), np.asarray(pair.right)
         expected = (self.rig.height, self.rig.width)
         ok = left.shape == right.shape and left.shape[:2] == expected
@@ -185,6 +186,7 @@ class SgbmEngine:
             raise FlylogError(msg)
         self._pair = pair
         self._since_pair = _IDENTITY
+        return pair
 
     def set_sonar(self, reading: SonarReading) -> None:
         """Accepted and ignored: the conventional pipeline has no sonar fusion."""

@@ -25,6 +25,16 @@ class Gradient(enum.Enum):
     HORIZONTAL = "horizontal"
 
 
+class Photometric(enum.Enum):
+    """What the engine does to a stereo pair before scoring flies on it
+    (flylog.fly.photometric)."""
+
+    NONE = "none"  # the images as they come (the paper's)
+    # both images smoothed by a Gaussian that grows with their noise, and the right image's
+    # grey-level mean and standard deviation matched to the left's
+    MATCHED = "matched"
+
+
 class Similarity(enum.Enum):
     """How the fitness compares the fly's two projections (flylog.fly.fitness_terms)."""
 
@@ -58,6 +68,15 @@ class EngineConfig:
         Gradient.HORIZONTAL,
         help="fitness numerator G: sqrt of the Sobel gradient norm (norm, the paper's) or of "
         "|gx| alone (horizontal: G = 0 on horizontal edges, which carry no disparity)",
+    )
+    photometric: Photometric = param(
+        Photometric.MATCHED,
+        help="before scoring flies on a pair: matched (smooth both images by a Gaussian of "
+        "σ = 0.5·(noise − 1) px, at most 2 px, the noise estimated in the images, then match "
+        "the right image's mean and standard deviation to the left's) or none (the images as "
+        "they come, the paper's). The motorcycle pair with zssd as it is / right 25 % "
+        "brighter / noise σ 8 / both: matched 0.995 / 0.996 / 0.966 / 0.954, none 0.980 / "
+        "0.699 / 0.482 / 0.210 (docs/engine.md)",
     )
     similarity: Similarity = param(
         Similarity.ZSSD,

@@ -55,9 +55,12 @@ class FlyEngine:
 
     # --- inputs -----------------------------------------------------------------------------
 
-    def set_images(self, pair: StereoPair) -> None:
-        """Work on this pair from now on; every fly's vision fitness becomes stale."""
+    def set_images(self, pair: StereoPair) -> StereoPair:
+        """Work on this pair from now on; every fly's vision fitness becomes stale. Returns
+        the pair as the flies are scored on it (``photometric``: matched, or ``pair``)."""
         self._state.set_images(pair)
+        assert self._state.pair is not None
+        return self._state.pair
 
     def set_sonar(self, reading: SonarReading) -> None:
         """Use this sonar reading (in base_link) for fusion until the next one."""

@@ -11,12 +11,13 @@ import numpy as np
 
 from flylog.errors import FlylogError
 from flylog.fly.bundles import Images
-from flylog.fly.config import EngineConfig
+from flylog.fly.config import EngineConfig, Photometric
 from flylog.fly.fitness import as_planes, images_of
 from flylog.fly.fusion import fired_arcs, fired_sonars
 from flylog.fly.measure import Measure
 from flylog.fly.measures import measure_of
 from flylog.fly.operators import random_flies
+from flylog.fly.photometric import Matching, matched
 from flylog.fly.population import Population, sharing_radius
 from flylog.fly.scouts import Scouting
 from flylog.geometry import StereoRig
@@ -64,6 +65,8 @@ class EngineState:
             config.disparity_mutation_scale * self.radius,
         )
         self.left: np.ndarray | None = None
+        self.matching: Matching | None = None  # the newest pair's photometric matching
+        self.pair: StereoPair | None = None  # the newest pair as the flies are scored on it
         self.right: np.ndarray | None = None
         self.images: Images | None = None  # the pair as the compiled kernels take it
         self.stamp_ns = -1
@@ -87,6 +90,11 @@ class EngineState:
                 f"{np.shape(pair.right)} do not match the rig's {expected} (grey or RGB)"
             )
             raise FlylogError(msg)
+        if self.config.photometric is Photometric.MATCHED:
+            ml, mr, self.matching = matched(_image(left), _image(right))
+            left, right = as_planes(ml), as_planes(mr)
+            pair = StereoPair(pair.stamp_ns, ml, mr)
+        self.pair = pair
         cfg = self.config
         self.left, self.right, self.stamp_ns = left, right, pair.stamp_ns
         self.images = images_of(
@@ -119,3 +127,8 @@ class EngineState:
     def swap(self) -> None:
         """The next generation, written into ``spare``, becomes the population."""
         self.pop, self.spare = self.spare, self.pop
+
+
+def _image(planes: np.ndarray) -> np.ndarray:
+    """(H, W, C) planes as an image: (H, W) for one channel."""
+    return planes[:, :, 0] if planes.shape[2] == 1 else planes

@@ -37,7 +37,7 @@ class PlannerDriver:
         self.config = config
         # the simulator writes odom → base_link itself
         self.pipeline = FlyPipeline(config, rig, start, goal, write, write_tf=False)
-        self.clock = VirtualClock(self.pipeline, clock_config(config, round(1e9 / rig.frame_rate)))
+        self.clock = VirtualClock(self.pipeline, clock_config(config, rig))
         self._stuck_since: float | None = None  # s: when the planner's STUCK began
         self._t = 0.0
 

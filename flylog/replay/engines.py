@@ -7,7 +7,9 @@ from typing import Protocol
 
 import numpy as np
 
+from flylog.fly.config import Photometric
 from flylog.fly.engine import FlyEngine, GenerationStats
+from flylog.fly.photometric import charged_evaluations
 from flylog.fly.population import Population
 from flylog.geometry import Pose2D, StereoRig
 from flylog.replay.config import ReplayConfig, Stereo
@@ -17,7 +19,9 @@ from flylog.sensors import SonarReading, StereoPair
 class StereoEngine(Protocol):
     """What the pipeline needs of an engine (FlyEngine and SgbmEngine implement it)."""
 
-    def set_images(self, pair: StereoPair) -> None: ...
+    def set_images(self, pair: StereoPair) -> StereoPair:
+        """Work on ``pair``; returns it as the engine matches it."""
+        ...
 
     def set_sonar(self, reading: SonarReading) -> None: ...
 
@@ -38,3 +42,11 @@ def stereo_engine(config: ReplayConfig, rig: StereoRig) -> StereoEngine:
 
         return SgbmEngine(config.sgbm, rig, points=config.engine.flies)
     return FlyEngine(config.engine, rig, np.random.default_rng(config.seed))
+
+
+def photometric_evaluations(config: ReplayConfig, rig: StereoRig) -> int:
+    """The evaluations each stereo pair's photometric matching is charged (0: SGBM, or
+    ``engine.photometric = "none"``)."""
+    if config.stereo is Stereo.SGBM or config.engine.photometric is Photometric.NONE:
+        return 0
+    return charged_evaluations(rig.width, rig.height)

@@ -1,9 +1,10 @@
 """A cheap look at whether the two cameras of a log differ in exposure.
 
-A similarity measure that is not gain-invariant (``zssd``, ``sad``) loses flies on their
-surfaces when the right camera's gain differs from the left's: on the Middlebury motorcycle
-pair (5000 flies, 50 generations, seeds 0 and 1) zssd's better half within 2 px is 0.980
-as it is, 0.955 with the right image 10 % brighter, 0.932 at 15 % and 0.874 at 20 %.
+A similarity measure that is not gain-invariant (``zssd``, ``sad``), on images as they come
+(``engine.photometric = "none"``), loses flies on their surfaces when the right camera's
+gain differs from the left's: on the Middlebury motorcycle pair (5000 flies, 50 generations,
+seeds 0 and 1) zssd's better half within 2 px is 0.980 as it is, 0.955 with the right image
+10 % brighter, 0.932 at 15 % and 0.874 at 20 %.
 :class:`ExposureWatch` compares the two images' contrasts, the standard deviation of their
 grey levels on a sparse grid of pixels (every 8th row and column: 1200 pixels at 320×240),
 a gain's measure that an offset between the cameras leaves alone; on that pair it reads
@@ -21,7 +22,7 @@ from collections import deque
 
 import numpy as np
 
-from flylog.fly.config import Similarity
+from flylog.fly.config import EngineConfig, Photometric
 
 EVERY = 10  # look at one stereo pair in this many
 WINDOW = 5  # the warning's ratio is the median of this many looks
@@ -44,13 +45,13 @@ def contrast(image: np.ndarray) -> float:
 
 
 class ExposureWatch:
-    """Looks at stereo pairs as a replay reads them and warns once (``look`` is a no-op for a
-    gain-invariant measure, or once it has warned)."""
+    """Looks at stereo pairs as a replay reads them and warns once (``look`` is a no-op for
+    photometric matching or a gain-invariant measure, or once it has warned)."""
 
-    def __init__(self, similarity: Similarity, source: str) -> None:
-        self.similarity = similarity
+    def __init__(self, engine: EngineConfig, source: str) -> None:
+        self.similarity = engine.similarity
         self.source = source
-        self.done = similarity.gain_invariant
+        self.done = engine.similarity.gain_invariant or engine.photometric is not Photometric.NONE
         self._seen = 0
         self._ratios: deque[float] = deque(maxlen=WINDOW)
 
@@ -80,8 +81,9 @@ class ExposureWatch:
             msg = (
                 f"{self.source}: the right camera's contrast is {abs(ratio - 1.0):.0%} {side} "
                 f"than the left's (ratio {ratio:.2f}, the median of {len(self._ratios)} "
-                f"pairs), and "
-                f"engine.similarity = {self.similarity.value} is not gain-invariant; "
-                "engine.similarity = contrast_zncc is (docs/engine.md)"
+                f"pairs), and engine.similarity = {self.similarity.value} on images as they "
+                'come (engine.photometric = "none") is not gain-invariant; '
+                'engine.photometric = "matched" (the default) matches the cameras '
+                "(docs/engine.md)"
             )
             warnings.warn(msg, ExposureWarning, stacklevel=3)

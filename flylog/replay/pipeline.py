@@ -23,7 +23,7 @@ from flylog.fly.population import Population
 from flylog.geometry import Pose2D, StereoRig
 from flylog.planner import Command, HarmonicPlanner
 from flylog.replay.config import ReplayConfig
-from flylog.replay.engines import StereoEngine, stereo_engine
+from flylog.replay.engines import StereoEngine, photometric_evaluations, stereo_engine
 from flylog.replay.obstacle_cache import Candidates
 from flylog.replay.overlay import best_valid_flies
 from flylog.replay.planner_jobs import (
@@ -167,6 +167,8 @@ class FlyPipeline:
         # obstacle rule's distinctness), charged to the next generation.
         self._owed_evaluations = 0
         self._evaluations = 0
+        # the photometric matching of each pair, in evaluations (flylog.fly.photometric)
+        self._photometric_cost = photometric_evaluations(config, rig)
         self.snapshots = 0
         if planner and config.planner.warm_start_sweeps:
             self._queue.submit(self._jobs.warm_start)  # on the worker, while the engine starts
@@ -190,8 +192,9 @@ class FlyPipeline:
             self._owed_evaluations += moved.evaluations
             if moved.motion is not None:
                 self.engine.apply_motion(moved.motion)
-            self.engine.set_images(record)
-            self._pair = record
+            # the distinctness test scores flies on the images they were scored on
+            self._pair = self.engine.set_images(record)
+            self._owed_evaluations += self._photometric_cost
         elif isinstance(record, SonarReading):
             self.engine.set_sonar(record)
             self._sonar = (record, self._poses.odom.pose)

@@ -12,6 +12,7 @@ from pathlib import Path
 
 from flylog.budget import DEFAULT_LIMITS, Limits
 from flylog.config import to_mapping
+from flylog.geometry import StereoRig
 from flylog.io import contract
 from flylog.io.atomic import Batch
 from flylog.io.collisions import Role, check_outputs
@@ -20,6 +21,7 @@ from flylog.io.tables import TableWriter
 from flylog.io.writer import Compression, LogWriter
 from flylog.replay.clock import ClockConfig, VirtualClock
 from flylog.replay.config import ReplayConfig, Stereo
+from flylog.replay.engines import photometric_evaluations
 from flylog.replay.estimate import check_sampling_rates, replay_estimate
 from flylog.replay.exposure import ExposureWatch
 from flylog.replay.pipeline import PLANNER_TICK, SNAPSHOT_TICK, FlyPipeline
@@ -60,9 +62,7 @@ def table_path(output: Path) -> Path:
     return output.with_suffix(".parquet")
 
 
-def clock_config(
-    config: ReplayConfig, frame_period_ns: int, *, planner: bool = True
-) -> ClockConfig:
+def clock_config(config: ReplayConfig, rig: StereoRig, *, planner: bool = True) -> ClockConfig:
     ticks = {
         PLANNER_TICK: round(1e9 / config.planner.tick_rate),
         SNAPSHOT_TICK: round(1e9 / config.snapshot_rate),
@@ -72,7 +72,7 @@ def clock_config(
     return ClockConfig(
         mode=config.mode,
         generations_per_frame=config.generations_per_cycle,
-        frame_period_ns=frame_period_ns,
+        frame_period_ns=round(1e9 / rig.frame_rate),
         tick_periods_ns=ticks,
         # SGBM's cost is fixed; the first generation after a stereo pair also pays for the
         # heading's measurement
@@ -80,6 +80,7 @@ def clock_config(
             config.engine.max_evaluations
             + config.obstacles.most_distinct_evaluations(config.engine.flies)
             + config.heading.max_evaluations
+            + photometric_evaluations(config, rig)
         ),
         # no stale fly and no distinctness charged (that comes with the first after a tick)
         max_later_generation_cost_ns=config.generation_cost_ns(config.engine.max_later_evaluations),
@@ -145,10 +146,10 @@ def replay(
         try:
             clock = VirtualClock(
                 pipeline,
-                clock_config(config, inputs.frame_period_ns, planner=inputs.has_planner),
+                clock_config(config, inputs.rig, planner=inputs.has_planner),
             )
             reported_ns = inputs.start_ns
-            watch = ExposureWatch(config.engine.similarity, f"the log {log}")
+            watch = ExposureWatch(config.engine, f"the log {log}")
             watch.done |= config.stereo is not Stereo.FLIES
             for message in source.records:
                 if isinstance(message.value, StereoPair):

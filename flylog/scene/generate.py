@@ -30,6 +30,7 @@ from flylog.config import param
 from flylog.errors import ConfigError
 from flylog.scene.footprints import compile_footprints
 from flylog.scene.occupancy import PathCheck, clearance_grid, shortest_path
+from flylog.sim.camera_defects import CameraDefects
 from flylog.scene.spec import (
     GeneratedConfig,
     GroundConfig,
@@ -173,6 +174,8 @@ def _draw(
             start=(start[0], start[1], heading), goal=goal, radius=config.robot_radius
         ),
         generated=generated,
+        # the cameras of a real robot, as the bundled scenes' (docs/simulator.md)
+        camera_defects=CameraDefects(ideal=False),
     )
     return World(spec, check)
 

@@ -70,6 +70,11 @@ frame x forward at start (by convention), y left, z up. A wrong name, type or ra
     mount_x = 0.1
     frame_rate = 15.0
 
+    [camera_defects]              # flylog.sim.camera_defects.CameraDefects
+    ideal = true                  # false: the camera model, every field at its typical value
+    # right_gain_ratio = 1.1      # e.g. one defect changed from the typical camera's
+    # read_noise_e = 2.5          # electrons rms
+
     [sonar]                       # flylog.sensors.SonarConfig
     angles_deg = [-50.0, -30.0, -10.0, 10.0, 30.0, 50.0]
     cone_deg = 15.0

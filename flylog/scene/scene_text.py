@@ -1,14 +1,16 @@
 """A scene as the TOML text of a scene file (the format of :mod:`flylog.scene.load`),
 holding only what differs from a scene file's defaults that generated worlds set: the
-name, duration and seed, the ground, the light, the obstacles, the robot and the
-``[generated]`` table."""
+name, duration and seed, the ground, the light, the obstacles, the robot, the
+``[generated]`` table and the ``[camera_defects]`` fields that differ from their defaults."""
 
 from __future__ import annotations
 
+import dataclasses
 import numbers
 from typing import Any
 
 from flylog.scene.spec import ObstacleConfig, ObstacleKind, SceneSpec, TextureConfig
+from flylog.sim.camera_defects import CameraDefects
 
 
 def _value(v: Any) -> str:
@@ -75,6 +77,13 @@ def scene_text(spec: SceneSpec, header: str = "") -> str:
         lines += [
             f"difficulty = {_value(g.difficulty)}",
             f"check_radius = {_value(g.check_radius)}",
+        ]
+    if spec.camera_defects != CameraDefects():
+        lines += ["", "[camera_defects]"]
+        lines += [
+            f"{f.name} = {_value(getattr(spec.camera_defects, f.name))}"
+            for f in dataclasses.fields(CameraDefects)
+            if getattr(spec.camera_defects, f.name) != f.default
         ]
     for ob in spec.obstacles:
         lines += ["", *_obstacle(ob)]

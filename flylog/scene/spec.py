@@ -10,6 +10,7 @@ from flylog.config import param
 from flylog.errors import ConfigError
 from flylog.geometry import StereoRig
 from flylog.sensors import SonarConfig
+from flylog.sim.camera_defects import CameraDefects
 from flylog.sim.kinematics import OdometryConfig
 
 
@@ -238,6 +239,11 @@ class SceneSpec:
     clutter: ClutterConfig | None = param(None, help="randomly placed obstacles")
     robot: RobotConfig = param(RobotConfig(), help="start and goal")
     camera: StereoRig = param(StereoRig(), help="the stereo rig")
+    camera_defects: CameraDefects = param(
+        CameraDefects(),
+        help="the cameras' exposure, gain, response, noise, vignetting and blur (absent: "
+        "ideal cameras)",
+    )
     sonar: SonarConfig = param(SonarConfig(), help="the sonar ring")
     odometry: OdometryConfig = param(OdometryConfig(), help="odometry and trajectory noise")
     drive: DriveConfig = param(DriveConfig(), help="the driving plan")

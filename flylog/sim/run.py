@@ -34,6 +34,7 @@ from flylog.io.decode import yaw_of
 from flylog.io.writer import LogConfig, LogWriter
 from flylog.scene.load import Scene
 from flylog.sensors import OdomReading, SonarReading, StereoPair
+from flylog.sim.camera_defects import CameraDefects, check_exposure
 from flylog.sim.drive import Driver, PlanDriver
 from flylog.sim.kinematics import RobotPoses, advance_poses
 from flylog.sim.scene_view import scene_shapes
@@ -82,6 +83,8 @@ class SimulationOptions:
     # StereoRig fields overriding the scene's camera after the resolution (tilt, roll, pan,
     # principal_point, doffs: pixels of the final resolution)
     camera: tuple[tuple[str, object], ...] = ()
+    # The camera model replacing the scene's [camera_defects] table (None: the scene's)
+    camera_defects: CameraDefects | None = None
 
 
 @dataclass(frozen=True)
@@ -107,6 +110,9 @@ def effective_scene(scene: Scene, options: SimulationOptions) -> Scene:
     if options.camera:
         rig = dataclasses.replace(rig, **dict(options.camera))  # type: ignore[arg-type]
     spec = dataclasses.replace(scene.spec, camera=rig)
+    if options.camera_defects is not None:
+        spec = dataclasses.replace(spec, camera_defects=options.camera_defects)
+    check_exposure(spec.camera_defects, rig.frame_rate, source=scene.source)
     return dataclasses.replace(scene, spec=spec)
 
 
@@ -148,6 +154,7 @@ def simulate(
     or stuck for its timeout); the summary then carries its status and why the run ended.
     ``on_frame(done, total)`` reports progress in stereo frames.
     """
+    from flylog.sim.camera import CameraModel, exposure_poses
     from flylog.sim.render import Renderer
     from flylog.sim.sonar import sonar_ranges
 
@@ -164,6 +171,12 @@ def simulate(
         np.random.default_rng(s) for s in np.random.SeedSequence(options.seed).spawn(2)
     )
     renderer = Renderer(scene, rig)
+    defects = spec.camera_defects
+    camera = (
+        None
+        if defects.ideal
+        else CameraModel(defects, rig, seed=options.seed, period_s=1.0 / rig.frame_rate)
+    )
     mounts = sonar_cfg.mounts()
     statics = encode.static_transforms(rig, sonar_cfg)
     shapes = scene_shapes(scene)
@@ -243,8 +256,15 @@ def simulate(
                 if closed is not None:
                     closed.observe(reading)
             else:
-                pair = renderer.render(poses.true)
-                for side, image in (("left", pair.left), ("right", pair.right)):
+                if camera is None:
+                    pair = renderer.render(poses.true)
+                    left, right = pair.left, pair.right
+                else:
+                    renders = [
+                        renderer.render(p) for p in exposure_poses(poses.true, *command, defects)
+                    ]
+                    left, right = camera.pair(frames, [(r.left, r.right) for r in renders])
+                for side, image in (("left", left), ("right", right)):
                     frame = contract.CAMERA_FRAMES[side]
                     write(contract.IMAGE_TOPICS[side], t_ns, encode.raw_image(image, t_ns, frame))
                     write(
@@ -253,7 +273,7 @@ def simulate(
                         encode.camera_calibration(rig, side, t_ns),
                     )
                 if closed is not None:
-                    closed.observe(StereoPair(t_ns, pair.left, pair.right))
+                    closed.observe(StereoPair(t_ns, left, right))
                 frames += 1
                 if on_frame is not None:
                     on_frame(frames, total_frames)
@@ -323,6 +343,7 @@ def _metadata(scene: Scene, options: SimulationOptions, duration: float) -> dict
         "seed": str(options.seed),
         "duration": repr(duration),
         "camera": json.dumps(to_mapping(scene.spec.camera)),
+        "camera_defects": json.dumps(to_mapping(scene.spec.camera_defects)),
         "sonar": json.dumps(to_mapping(scene.spec.sonar)),
         "start": json.dumps(list(scene.spec.robot.start)),
         "goal": json.dumps(list(scene.goal)),

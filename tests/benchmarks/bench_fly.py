@@ -645,7 +645,7 @@ def _log_calls(log: Path, seconds: float) -> tuple[StereoRig, list[tuple[str, ob
         def tick(self, name, t_ns):
             pass
 
-    clock = VirtualClock(Recorder(), clock_config(config, inputs.frame_period_ns))
+    clock = VirtualClock(Recorder(), clock_config(config, inputs.rig))
     end = inputs.start_ns + round(seconds * 1e9)
     for message in pair_stereo(reader.messages(SENSOR_TOPICS)):
         if message.log_time_ns > end:

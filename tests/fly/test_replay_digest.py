@@ -2,7 +2,9 @@
 measure definitions and back-ends (docs/architecture.md), bit for bit: the digests below were
 recorded with that code (``python tests/fly/replay_digest.py LOG SEED [key=value ...]``).
 Regenerating the fixture logs changes them; record them again then. The planner runs as it
-did then, with unknown cells free (``planner.frontier_field`` off)."""
+did then, with unknown cells free (``planner.frontier_field`` off), and on the images as they
+come (``engine.photometric = "none"``, the default then). The last case is the default
+configuration's, recorded with the photometric matching (``flylog.fly.photometric``)."""
 
 from pathlib import Path
 
@@ -13,18 +15,30 @@ from tests.fly.replay_digest import replay_digest
 LOGS = Path(__file__).resolve().parents[2] / "fixtures" / "logs"
 
 CASES = [
-    # the default configuration (zssd, sub-pixel, heading, scouts while turning)
+    # zssd, sub-pixel, heading, scouts while turning
     (
         "turn.mcap",
         0,
-        {"planner.frontier_field": False},
+        {"planner.frontier_field": False, "engine.photometric": "none"},
         "398113da2a5c760f7cd86e7a8d18dade0973756be93a4b4dddde46990167e84b",
     ),
     (
         "turn.mcap",
         1,
-        {"engine.similarity": "zncc", "engine.subpixel": False, "planner.frontier_field": False},
+        {
+            "engine.similarity": "zncc",
+            "engine.subpixel": False,
+            "planner.frontier_field": False,
+            "engine.photometric": "none",
+        },
         "60998ecdf6c659dc3ea27cdf046f5cf4c217157a316f80e7d9403d07bbbb330c",
+    ),
+    # the default configuration
+    (
+        "turn.mcap",
+        0,
+        {"planner.frontier_field": False},
+        "7cb400ccbd9dc2f0b2afc101c0ce815e0a02b04aeff63b87b7887de86806f76d",
     ),
 ]
 

@@ -9,7 +9,8 @@ import pytest
 
 import flylog.replay.run as run_module
 from flylog.config import from_mapping
-from flylog.fly import Similarity
+from flylog.fly import EngineConfig, Similarity
+from flylog.fly.config import Photometric
 from flylog.replay.config import ReplayConfig
 from flylog.replay.exposure import EVERY, WINDOW, ExposureWarning, ExposureWatch, contrast
 from flylog.replay.run import replay
@@ -34,9 +35,10 @@ def test_contrast_ratio_reads_a_gain_and_ignores_an_offset():
     assert contrast(left[..., 0]) > 0  # grey images too
 
 
-def _watched(similarity, gain, pairs):
+def _watched(similarity, gain, pairs, photometric=Photometric.NONE):
     rng = np.random.default_rng(1)
-    watch = ExposureWatch(similarity, "the log x.mcap")
+    engine = EngineConfig(similarity=similarity, photometric=photometric)
+    watch = ExposureWatch(engine, "the log x.mcap")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         for _ in range(pairs):
@@ -50,7 +52,7 @@ def test_a_brighter_right_camera_under_zssd_warns_once_naming_the_setting():
     assert len(caught) == 1
     text = str(caught[0].message)
     assert "the log x.mcap" in text and "25% higher" in text
-    assert "engine.similarity = zssd" in text and "contrast_zncc" in text
+    assert "engine.similarity = zssd" in text and 'engine.photometric = "matched"' in text
 
 
 @pytest.mark.parametrize("gain", [0.75, 1.25])
@@ -58,8 +60,9 @@ def test_either_way_warns(gain):
     assert len(_watched(Similarity.SAD, gain, EVERY * WINDOW)) == 1
 
 
-def test_no_warning_for_equal_cameras_or_a_gain_invariant_measure():
+def test_no_warning_for_equal_cameras_matched_ones_or_a_gain_invariant_measure():
     assert _watched(Similarity.ZSSD, 1.03, 200) == []
+    assert _watched(Similarity.ZSSD, 1.25, 200, Photometric.MATCHED) == []
     for similarity in (Similarity.ZNCC, Similarity.GAIN_ZSSD, Similarity.CONTRAST_ZNCC):
         assert _watched(similarity, 1.25, 200) == []
 
@@ -91,11 +94,18 @@ class _Brighter:
         return source
 
 
-@pytest.mark.parametrize(("similarity", "warns"), [("zssd", 1), ("contrast_zncc", 0)])
-def test_replay_of_a_log_with_a_brighter_right_camera(tmp_path, monkeypatch, similarity, warns):
+@pytest.mark.parametrize(
+    ("similarity", "photometric", "warns"),
+    [("zssd", "none", 1), ("zssd", "matched", 0), ("contrast_zncc", "none", 0)],
+)
+def test_replay_of_a_log_with_a_brighter_right_camera(
+    tmp_path, monkeypatch, similarity, photometric, warns
+):
     monkeypatch.setattr(run_module, "input_at", _Brighter)
     engine = from_mapping(
-        type(ReplayConfig().engine), {"flies": 400, "similarity": similarity}, source="test"
+        type(ReplayConfig().engine),
+        {"flies": 400, "similarity": similarity, "photometric": photometric},
+        source="test",
     )
     config = ReplayConfig(engine=engine, generations_per_frame=1)
     with warnings.catch_warnings(record=True) as caught:

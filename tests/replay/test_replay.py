@@ -244,7 +244,7 @@ def _pipeline_outputs(
         on_row=rows.append,
         planner_thread=planner_thread,
     )
-    timing = clock_config(config, inputs.frame_period_ns)
+    timing = clock_config(config, inputs.rig)
     if copy_at_publish:
         timing = dataclasses.replace(timing, max_generation_cost_ns=None)
     clock = VirtualClock(pipeline, timing)
