@@ -30,7 +30,6 @@ from flylog.config import param
 from flylog.errors import ConfigError
 from flylog.scene.footprints import compile_footprints
 from flylog.scene.occupancy import PathCheck, clearance_grid, shortest_path
-from flylog.sim.camera_defects import CameraDefects
 from flylog.scene.spec import (
     GeneratedConfig,
     GroundConfig,
@@ -42,6 +41,7 @@ from flylog.scene.spec import (
     TextureConfig,
 )
 from flylog.scene.world_parts import Room, clutter_field, passage_walls, room_walls
+from flylog.sim.camera_defects import CameraDefects
 
 # Worlds drawn per seed before giving up (a draw fails when its pieces overlap or its
 # obstacles close the way); the families' defaults need 1-3 draws.
