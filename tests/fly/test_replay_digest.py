@@ -38,7 +38,7 @@ CASES = [
         "turn.mcap",
         0,
         {"planner.frontier_field": False},
-        "7cb400ccbd9dc2f0b2afc101c0ce815e0a02b04aeff63b87b7887de86806f76d",
+        "d1f4886736b67a0ee35052400431cbb4073ae37bd9c6ec12d36b6b2914c1d7a5",
     ),
 ]
 

@@ -39,8 +39,8 @@ REFUSED = [
     ),
     (
         ["replay", "log.mcap", "-o", "r.mcap", "--snapshot-rate", "1e12"],
-        "'snapshot_rate': must be at most 10000.0 Hz, got 1000000000000.0",
-        "(option --snapshot-rate)",
+        "'--snapshot-rate': 1000000000000.0 is not in the range 0.01<=x<=10000.0",
+        "",
     ),
     (
         ["replay", "log.mcap", "-o", "r.mcap", "--snapshot-rate", "1000"],

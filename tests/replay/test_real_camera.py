@@ -15,6 +15,7 @@ from flylog.io.reader import open_log
 from flylog.metrics.score import score_run
 from flylog.replay.config import ReplayConfig
 from flylog.scene import load_scene
+from flylog.sim.camera_defects import CameraDefects
 from flylog.sim.run import SimulationOptions, effective_scene, simulate
 from flylog.sources.inputs import replay_inputs
 
@@ -28,7 +29,11 @@ SEEDS = range(6)
 
 def _simulated(path, duration, resolution, **camera):
     options = SimulationOptions(
-        duration=duration, seed=0, resolution=resolution, camera=tuple(camera.items())
+        duration=duration,
+        seed=0,
+        resolution=resolution,
+        camera=tuple(camera.items()),
+        camera_defects=CameraDefects(),  # ideal, as the fixture log it is compared with
     )
     scene = load_scene(CORRIDOR_SCENE)
     simulate(scene, path, options)
