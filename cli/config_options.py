@@ -20,8 +20,6 @@ import click
 
 from flylog.cli.common import Finite
 
-# A field's default as --help prints it: enums by value, booleans as on/off, and large
-# round floats without an exponent (3.7e6 as 3700000).
 _FLAG_WORDS = {True: "on", False: "off"}
 
 
@@ -36,6 +34,8 @@ def config_field(cls: type, path: str) -> tuple[dataclasses.Field[Any], type]:
 
 
 def _shown(value: Any) -> str:
+    """A field's default as --help prints it: enums by value, booleans as on/off, and large
+    round floats without an exponent (3.7e6 as 3700000)."""
     if isinstance(value, enum.Enum):
         return str(value.value)
     if isinstance(value, bool):

@@ -9,20 +9,22 @@ scored on it:
    them: ``σ_blur = min(BLUR_MAX_PX, BLUR_PER_NOISE · (σ_noise − NOISE_FLOOR))`` px, zero below
    the floor. ``σ_noise`` is Immerkær's estimate (a 3×3 Laplacian-like mask's mean absolute
    response, which cancels a locally linear image; textured images read above their true
-   noise): about 1.0 grey level on the simulator's ideal images, 1.7–1.9 on its realistic
-   ones (EMVA 1288's noise model, docs/simulator.md), 2.4 on the Middlebury motorcycle pair
-   as it is and 5.7 with noise σ = 8 added;
+   noise): 1.0 grey level on the simulator's ideal images (the fixture `corridor`), 2.0–2.2
+   on its realistic ones (EMVA 1288's noise model, docs/simulator.md), 2.5 on the Middlebury
+   motorcycle pair as it is and 6.3 with noise σ = 8 added;
 2. the right image's grey levels mapped linearly so that its mean and standard deviation,
    over the channels and a grid of every :data:`GRID_PX`-th row and column, are the left
    one's: a gain and an offset between the cameras, one pair at a time (an auto-exposure's
    drift is followed).
 
 Measured (5000 flies, 50 generations, zssd, sub-pixel, the better half within 2 px, the mean
-of seeds 0 and 1) on the motorcycle pair as it is / right image 25 % brighter / noise σ = 8
-on both / both: ``none`` 0.980 / 0.699 / 0.482 / 0.210; ``matched`` 0.995 / 0.996 / 0.966 /
-0.954; the gain step alone (no smoothing) 0.966 / 0.856 / 0.497 / 0.323, the smoothing alone
-0.995 / 0.954 / 0.955 / 0.802; per-channel gains instead of one 0.994 / 0.994 / 0.954 /
-0.952. Both steps read every pixel once (no fly's fitness depends on pixels it does not
+of seeds 0 and 1; ``bench_real_pair``'s ``default_table``) on the motorcycle pair as it is /
+right image 25 % brighter / noise σ = 8 on both / both: ``none`` 0.980 / 0.699 / 0.486 /
+0.217; ``matched`` 0.995 / 0.996 / 0.966 / 0.948. A floating-point prototype of the same
+steps (other noise draws) gave, for the gain step alone (no smoothing), 0.966 / 0.856 /
+0.497 / 0.323, for the smoothing alone 0.995 / 0.954 / 0.955 / 0.802, and with per-channel
+gains instead of one 0.994 / 0.994 / 0.954 / 0.952: both steps are needed, one gain is
+enough. Both steps read every pixel once (no fly's fitness depends on pixels it does not
 read, but its window's pixels depend on their neighbours within 3 σ_blur); their cost is
 charged to the replay's virtual clock as fitness evaluations (:func:`charged_evaluations`).
 """
