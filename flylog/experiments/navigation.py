@@ -97,7 +97,7 @@ def _run(job: _Job) -> dict:
     from flylog.experiments.closed_loop import describe_obstacle, touched_obstacles
     from flylog.io import contract
     from flylog.io.reader import open_log
-    from flylog.replay.closed_loop import PlannerDriver
+    from flylog.replay.closed_loop import planner_driver
     from flylog.scene.load import load_scene
     from flylog.sim.run import SimulationOptions, simulate
 
@@ -107,12 +107,9 @@ def _run(job: _Job) -> dict:
     log = job.here / "runs" / f"{job.family.value}-{job.seed}.mcap"
     log.parent.mkdir(parents=True, exist_ok=True)
 
-    def make_driver(scene, write):
-        return PlannerDriver(config, scene.spec.camera, scene.start_pose, scene.goal, write)
-
     limit = job.options.duration_or(TIME_LIMIT)
     sim = SimulationOptions(duration=limit, seed=job.seed, resolution=job.options.resolution)
-    simulate(scene, log, sim, make_driver=make_driver)
+    simulate(scene, log, sim, make_driver=planner_driver(config))
     ending = open_log(log).metadata()[contract.REPLAY_METADATA].get("ending", "")
     s = score(log, log).summary
     t, true, _ = trajectories(log)

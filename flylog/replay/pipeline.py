@@ -8,8 +8,9 @@ planner, same outputs.
 
 The collaborators, one job each: :mod:`~flylog.replay.engines` (which engine),
 :mod:`~flylog.replay.pose_tracker` (the pose at each image, heading-corrected),
-:class:`Publication` (what ticks see), :mod:`~flylog.replay.obstacle_cache` (the obstacle
-rule's answers), :mod:`~flylog.replay.planner_jobs` (ticks and snapshots, encoded) and
+:mod:`~flylog.replay.publication` (what ticks see), :mod:`~flylog.replay.obstacle_cache`
+(the obstacle rule's answers), :mod:`~flylog.replay.planner_jobs` (ticks and the planner's
+part of snapshots), :mod:`~flylog.replay.fly_snapshot` (the flies' part), and
 :mod:`~flylog.replay.worker` (their queue and the writing).
 """
 
@@ -19,22 +20,17 @@ from collections.abc import Callable
 from typing import Any
 
 from flylog.fly.engine import GenerationStats
-from flylog.fly.population import Population
 from flylog.geometry import Pose2D, StereoRig
 from flylog.planner import Command, HarmonicPlanner
 from flylog.replay.config import ReplayConfig
 from flylog.replay.engines import StereoEngine, photometric_evaluations, stereo_engine
-from flylog.replay.obstacle_cache import Candidates
+from flylog.replay.fly_snapshot import FlySnapshots, SnapshotInputs
+from flylog.replay.obstacle_cache import Candidates, Evidence
 from flylog.replay.overlay import best_valid_flies
-from flylog.replay.planner_jobs import (
-    PlannerJobs,
-    Published,
-    SnapshotInputs,
-    TickInputs,
-    path_poses,
-)
+from flylog.replay.planner_jobs import PlannerJobs, TickInputs, path_poses
 from flylog.replay.pose_tracker import KEYFRAME_FLIES, ODOM_HISTORY, PoseTracker, pose_at
-from flylog.replay.worker import MAX_PENDING_JOBS, OutputQueue, Write
+from flylog.replay.publication import Publication, Published
+from flylog.replay.worker import MAX_PENDING_JOBS, OutputQueue, Outputs, Write
 from flylog.sensors import OdomReading, SonarReading, StereoPair
 
 # What other modules import from here.
@@ -56,58 +52,6 @@ __all__ = [
 
 PLANNER_TICK = "planner"
 SNAPSHOT_TICK = "snapshot"
-
-
-class Publication:
-    """The newest population published, and where and when it was computed: what ticks
-    see.
-
-    Publishing does not copy the population: it is copied when first read, and before
-    anything changes it (a delivered record, a generation a tick may follow before the next
-    publish): a copy per generation costs 4 % of the replay's main thread. A generation no
-    tick can follow before the next publish drops it instead (the clock says which).
-    """
-
-    def __init__(self, engine: StereoEngine, start: Pose2D) -> None:
-        self._engine = engine
-        self._population: Population | None = None
-        self._live = False  # what is published is the engine's population, as it is
-        self._gone = False  # ... and a generation has moved it on: none may read it
-        self.pose = start  # odometry the population is expressed at
-        self.image_stamp_ns = -1  # stamp of the images it was scored on (-1: none yet)
-        self.generation = 0
-        self.pair: StereoPair | None = None  # the images it was scored on
-
-    def publish(self, pose: Pose2D, stats: GenerationStats, pair: StereoPair | None) -> None:
-        """The engine's population, as ``stats`` left it, becomes what ticks see."""
-        self._live, self._gone = True, False
-        self.pose = pose
-        self.image_stamp_ns = stats.image_stamp_ns
-        self.generation = stats.generation
-        self.pair = pair
-
-    def population(self) -> Population | None:
-        """The newest population published (an immutable copy), as ticks see it."""
-        if self._gone:
-            msg = "a tick read a published population that a generation has moved on"
-            raise RuntimeError(msg)
-        if self._live:
-            self._population = self._engine.population
-            self._live = False
-        return self._population
-
-    def before_record(self) -> None:
-        """A record is about to change the engine's population: copy what was published."""
-        if self._live:
-            self.population()
-
-    def before_generations(self, tick_before_publish: bool) -> None:
-        """Generations are about to change the engine's population: copy what was
-        published if a tick may read it before the next publish, drop it if none can."""
-        if tick_before_publish:
-            self.population()
-        elif self._live:
-            self._live, self._gone = False, True
 
 
 class FlyPipeline:
@@ -151,14 +95,12 @@ class FlyPipeline:
         self._poses = PoseTracker(config.heading, rig, start, config.engine.similarity)
         self.published = Publication(self.engine, start)
         self._candidates = Candidates(config.obstacles)
-        self._jobs = PlannerJobs(
-            config,
-            rig,
-            self.planner,
-            write_tf=write_tf,
-            rows=on_row is not None,
-            planner_outputs=planner,
+        evidence = Evidence(config.obstacles, rig, config.engine)
+        self._jobs = PlannerJobs(config, rig, self.planner, evidence, rows=on_row is not None)
+        self._flies = FlySnapshots(
+            rig, evidence, overlay_flies=config.overlay_flies, write_tf=write_tf
         )
+        self._planner_outputs = planner
         self._queue = OutputQueue(write, on_row, threaded=planner_thread)
         self._last_stats: GenerationStats | None = None
         self._pair: StereoPair | None = None  # newest stereo pair delivered
@@ -233,10 +175,18 @@ class FlyPipeline:
         elif name == SNAPSHOT_TICK:
             self.snapshots += 1
             snapshot = SnapshotInputs(t_ns, self._seen(), self._poses.odom.pose)
-            self._queue.submit(self._jobs.snapshot, snapshot)
+            self._queue.submit(self._snapshot, snapshot)
         else:
             msg = f"unknown tick {name!r}"
             raise ValueError(msg)
+
+    def _snapshot(self, snap: SnapshotInputs) -> Outputs:
+        """A snapshot's messages (a job of the queue): the flies', then the planner's
+        (without ``planner``, the flies' only)."""
+        messages = self._flies.snapshot(snap)
+        if self._planner_outputs:
+            messages += self._jobs.snapshot(snap.t_ns, snap.robot_pose)
+        return Outputs(messages)
 
     # --- the end of a run -----------------------------------------------------------------
 

@@ -1,6 +1,7 @@
 """The planner's side of the pipeline, run as jobs of :class:`~flylog.replay.worker.OutputQueue`:
-a planner tick (obstacles in, relaxation, command, table row) and a snapshot (the flies,
-their overlay, the potential and the path, encoded as the log's messages).
+a planner tick (obstacles in, relaxation, command, table row) and the planner's part of a
+snapshot (the potential, the path and the obstacle map, encoded as the log's messages; the
+flies' part is :mod:`flylog.replay.fly_snapshot`'s).
 
 Each job reads only what it is given, captured at its virtual time, and the planner, which
 no other job touches: the jobs may run on a worker thread while the engine goes on."""
@@ -13,9 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from flylog.fly.population import Population
-from flylog.geometry import Pose2D, StereoRig, relative, transform_points_2d
-from flylog.geometry.proprioception import moved_by_odometry
+from flylog.geometry import Pose2D, StereoRig, transform_points_2d
 from flylog.io import contract, encode
 from flylog.io.tables import Column, table_row
 from flylog.planner import HarmonicPlanner
@@ -23,9 +22,9 @@ from flylog.planner.obstacles import sonar_arc_points
 from flylog.planner.sonar_free import free_cones
 from flylog.replay.config import ReplayConfig
 from flylog.replay.obstacle_cache import Evidence
-from flylog.replay.overlay import fly_overlay
+from flylog.replay.publication import Published
 from flylog.replay.worker import Outputs
-from flylog.sensors import OdomReading, SonarReading, StereoPair
+from flylog.sensors import OdomReading, SonarReading
 
 # pyarrow type names: pyarrow is imported with the first row (flylog.io.tables)
 _F, _I, _S = "float64", "int64", "string"
@@ -54,18 +53,6 @@ STEP_COLUMNS = (
 
 
 @dataclass(frozen=True)
-class Published:
-    """The newest publication, as a tick or a snapshot sees it."""
-
-    population: Population | None  # an immutable copy (None: none yet)
-    pose: Pose2D  # odometry the population is expressed at
-    image_stamp_ns: int  # stamp of the images it was scored on (-1: none yet)
-    generation: int
-    pair: StereoPair | None  # the images it was scored on (None: none yet)
-    candidates: np.ndarray | None  # the flies whose distinctness the rule reads (or None)
-
-
-@dataclass(frozen=True)
 class TickInputs:
     """What a planner tick at ``t_ns`` sees, captured at that virtual time."""
 
@@ -76,38 +63,25 @@ class TickInputs:
     sonar: tuple[SonarReading, Pose2D] | None  # the newest sonar reading, and odometry then
 
 
-@dataclass(frozen=True)
-class SnapshotInputs:
-    """What a snapshot at ``t_ns`` writes, captured at that virtual time."""
-
-    t_ns: int
-    published: Published
-    robot_pose: Pose2D  # the newest odometry
-
-
 class PlannerJobs:
-    """The planner's work for the pipeline; ``write_tf`` adds odom → base_link to each
-    snapshot, ``rows`` makes each tick's row of the per-step table; without
-    ``planner_outputs`` snapshots hold the flies only."""
+    """The planner's work for the pipeline; ``rows`` makes each tick's row of the per-step
+    table. ``evidence`` is the obstacle rule's answers, shared with the flies' snapshots."""
 
     def __init__(
         self,
         config: ReplayConfig,
         rig: StereoRig,
         planner: HarmonicPlanner,
+        evidence: Evidence,
         *,
-        write_tf: bool,
         rows: bool,
-        planner_outputs: bool = True,
     ) -> None:
         self.config = config
         self.rig = rig
         self.planner = planner
-        self._write_tf = write_tf
         self._rows = rows
-        self._planner_outputs = planner_outputs
         self._mapping_range = config.planner.mapping_range(rig.focal_px, rig.baseline)
-        self._evidence = Evidence(config.obstacles, rig, config.engine)
+        self._evidence = evidence
 
     def warm_start(self) -> Outputs:
         """Relax the obstacle-free field before the first tick (planner.warm_start_sweeps, at
@@ -189,42 +163,9 @@ class PlannerJobs:
         reading, pose = sonar
         return free_cones(reading, pose, cfg.sonar_free_margin), reading.half_cone
 
-    def snapshot(self, snap: SnapshotInputs) -> Outputs:
-        """A snapshot's messages: the flies (with each fly's distinctness when the obstacle
-        rule reads it) in base_link at the robot's pose, their overlay and odom → base_link
-        there (when a population was published), then the planner's potential and path."""
-        t_ns, seen, robot_pose = snap.t_ns, snap.published, snap.robot_pose
-        messages: list[tuple[str, int, Any]] = []
-        pop = seen.population
-        if pop is not None:
-            distinct = None
-            if seen.candidates is not None:
-                distinct = self._evidence.of(pop, seen.pair, seen.generation, seen.candidates)[1]
-            # on the images the flies were scored on
-            uv, colours = fly_overlay(pop, self.rig, self.config.overlay_flies)
-            # The flies are expressed where the robot was when their images were taken; the
-            # cloud goes out in base_link at the snapshot's time, like every message (the
-            # metrics render the truth there).
-            xyz = pop.xyz
-            if seen.pose != robot_pose:
-                xyz = moved_by_odometry(xyz, relative(seen.pose, robot_pose))
-            cloud = encode.point_cloud(
-                xyz, pop.fitness, t_ns, contract.BASE_FRAME, pop.age, distinct=distinct
-            )
-            messages += [
-                (contract.FLIES, t_ns, cloud),
-                (contract.FLIES_OVERLAY, t_ns, encode.image_annotations(uv, colours, t_ns)),
-            ]
-            if self._write_tf:
-                transform = encode.odom_transform(robot_pose)
-                messages.append((contract.TF, t_ns, encode.frame_transforms([transform], t_ns)))
-        if self._planner_outputs:
-            messages += self._planner_snapshot(t_ns, robot_pose)
-        return Outputs(messages)
-
-    def _planner_snapshot(self, t_ns: int, robot_pose: Pose2D) -> list[tuple[str, int, Any]]:
-        """The potential, the path the robot would follow from ``robot_pose`` and the obstacle
-        map, now."""
+    def snapshot(self, t_ns: int, robot_pose: Pose2D) -> list[tuple[str, int, Any]]:
+        """The planner's part of a snapshot: the potential, the path the robot would follow
+        from ``robot_pose`` and the obstacle map, now."""
         ox, oy = self.planner.origin
         grid = encode.grid(
             self.planner.potential,

@@ -41,6 +41,7 @@ from flylog.planner.grid import GridGeometry
 from flylog.planner.map import ObstacleMap
 from flylog.planner.planner import HarmonicPlanner
 from flylog.replay.config import ReplayConfig
+from flylog.replay.fly_snapshot import FlySnapshots
 from flylog.replay.obstacle_cache import Evidence
 from flylog.replay.pipeline import FlyPipeline
 from flylog.replay.planner_jobs import PlannerJobs
@@ -642,6 +643,7 @@ def _where_the_time_goes(out_dir: Path) -> list[dict]:
             (OutputQueue, "submit", "queue"),
             (OutputQueue, "flush", "queue"),
             (PlannerJobs, "tick", "planner tick"),
+            (FlySnapshots, "snapshot", "snapshot"),
             (PlannerJobs, "snapshot", "snapshot"),
             (PlannerJobs, "warm_start", "warm start"),
             (OutputQueue, "_emit", "writing"),
