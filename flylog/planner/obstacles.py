@@ -56,9 +56,15 @@ def dense_cells(
     source = np.ascontiguousarray(counts, dtype=np.int64 if integer else np.float64)
     window_area = ((2 * half_width + 1) * cell_size) ** 2
     return _dense_cells_kernel(
-        source, r0, max(r1, r0), c0, max(c1, c0), max(half_width, 0), window_area,
+        source,
+        r0,
+        max(r1, r0),
+        c0,
+        max(c1, c0),
+        max(half_width, 0),
+        window_area,
         float(threshold),
-    )  # fmt: skip
+    )
 
 
 @numba.njit(cache=True, nogil=True)
@@ -160,8 +166,11 @@ def seen_free(
         np.ascontiguousarray(detected, dtype=np.bool_),
         np.ascontiguousarray(rng, dtype=np.float64),
         np.ascontiguousarray(bearing, dtype=np.float64),
-        float(half_fov), float(width), n_bins, float(cell_size),
-    )  # fmt: skip
+        float(half_fov),
+        float(width),
+        n_bins,
+        float(cell_size),
+    )
 
 
 @numba.njit(cache=True, nogil=True)

@@ -49,10 +49,17 @@ def cone_cells(
     r0, r1, _ = rows.indices(geometry.cells)
     c0, c1, _ = cols.indices(geometry.cells)
     return _cone_cells_kernel(
-        float(ox), float(oy), float(geometry.cell_size), r0, max(r1, r0), c0, max(c1, c0),
+        float(ox),
+        float(oy),
+        float(geometry.cell_size),
+        r0,
+        max(r1, r0),
+        c0,
+        max(c1, c0),
         np.ascontiguousarray(cones, dtype=np.float64).reshape(-1, 4),
-        math.sin(half_cone), math.cos(half_cone),
-    )  # fmt: skip
+        math.sin(half_cone),
+        math.cos(half_cone),
+    )
 
 
 @numba.njit(cache=True, nogil=True)

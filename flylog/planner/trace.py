@@ -100,8 +100,15 @@ def descend_on_grid(
         np.ascontiguousarray(gx, dtype=np.float64),
         np.ascontiguousarray(gy, dtype=np.float64),
         np.ascontiguousarray(obstacles, dtype=np.bool_),
-        float(ox), float(oy), float(geometry.cell_size),
-        float(start_xy[0]), float(start_xy[1]), float(goal_xy[0]), float(goal_xy[1]),
-        float(step), int(max_steps), float(goal_tolerance),
-    )  # fmt: skip
+        float(ox),
+        float(oy),
+        float(geometry.cell_size),
+        float(start_xy[0]),
+        float(start_xy[1]),
+        float(goal_xy[0]),
+        float(goal_xy[1]),
+        float(step),
+        int(max_steps),
+        float(goal_tolerance),
+    )
     return PlannedPath(points, _ENDS[end])
