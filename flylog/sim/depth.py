@@ -108,9 +108,14 @@ def _columns_reference(
             ids = np.where(side, k, ids)
             t_top = (hc - h) / slope
             top = (
-                active & ~side & down & (hc > h)
-                & (t_top >= np.maximum(t, 0.0)) & (t_top <= t_out[:, i : i + 1]) & (t_top < best)
-            )  # fmt: skip
+                active
+                & ~side
+                & down
+                & (hc > h)
+                & (t_top >= np.maximum(t, 0.0))
+                & (t_top <= t_out[:, i : i + 1])
+                & (t_top < best)
+            )
             best = np.where(top, t_top, best)
             ids = np.where(top, k, ids)
     return best, ids
@@ -209,9 +214,15 @@ def _level_true_depths(
 
     # Each column in pieces between run ends; a piece belongs to the first run holding it.
     ends = np.concatenate(
-        [np.zeros((columns, 1), np.int64), np.full((columns, 1), horizon), lo, hi,
-         np.full((columns, 1), height)], axis=1,
-    )  # fmt: skip
+        [
+            np.zeros((columns, 1), np.int64),
+            np.full((columns, 1), horizon),
+            lo,
+            hi,
+            np.full((columns, 1), height),
+        ],
+        axis=1,
+    )
     ends = np.sort(np.clip(ends, 0, height), axis=1)
     start = ends[:, :-1]
     owner = np.full(start.shape, -1)

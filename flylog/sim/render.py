@@ -151,12 +151,41 @@ class Renderer:
         # does fewer of them instead of holding up the frame.
         with numba.parallel_chunksize(1):
             _render_kernel(
-                origins, centre, dirs, rig.mount_height, rig.focal_px, rig.cy, rig.height,
-                fp.kind, fp.cx, fp.cy, fp.cos, fp.sin, fp.hx, fp.hy, fp.height,
-                fp.color, fp.feature_size, fp.contrast,
-                a.ground_color, a.ground_feature, a.ground_contrast, a.light, a.ambient, a.sky,
-                sky_cols, sky_rows, want_color, rgb, depth, ids,
-            )  # fmt: skip
+                # the cameras and their rays
+                origins,
+                centre,
+                dirs,
+                rig.mount_height,
+                rig.focal_px,
+                rig.cy,
+                rig.height,
+                # footprints, one entry per obstacle
+                fp.kind,
+                fp.cx,
+                fp.cy,
+                fp.cos,
+                fp.sin,
+                fp.hx,
+                fp.hy,
+                fp.height,
+                fp.color,
+                fp.feature_size,
+                fp.contrast,
+                # ground, light and sky
+                a.ground_color,
+                a.ground_feature,
+                a.ground_contrast,
+                a.light,
+                a.ambient,
+                a.sky,
+                sky_cols,
+                sky_rows,
+                # whether to draw the images, and the outputs
+                want_color,
+                rgb,
+                depth,
+                ids,
+            )
         return rgb, depth, ids
 
     def render(self, pose: Pose2D) -> RenderedPair:
@@ -185,11 +214,41 @@ class Renderer:
 # No nnan/ninf fast-math: depth uses inf for the sky.
 @numba.njit(cache=True, parallel=True, fastmath={"nsz", "arcp", "contract", "afn"})
 def _render_kernel(
-    origins, centre, dirs, hc, f, cy, height,
-    kind, ocx, ocy, ocos, osin, ohx, ohy, oh, ocolor, ofeat, ocontrast,
-    gcolor, gfeat, gcontrast, light, ambient, sky, sky_cols, sky_rows,
-    want_color, rgb, depth, ids,
-):  # fmt: skip
+    # the cameras and their rays
+    origins,
+    centre,
+    dirs,
+    hc,
+    f,
+    cy,
+    height,
+    # footprints, one entry per obstacle
+    kind,
+    ocx,
+    ocy,
+    ocos,
+    osin,
+    ohx,
+    ohy,
+    oh,
+    ocolor,
+    ofeat,
+    ocontrast,
+    # ground, light and sky
+    gcolor,
+    gfeat,
+    gcontrast,
+    light,
+    ambient,
+    sky,
+    sky_cols,
+    sky_rows,
+    # whether to draw the images, and the outputs
+    want_color,
+    rgb,
+    depth,
+    ids,
+):
     n_cams, width = dirs.shape[0], dirs.shape[1]
     n = kind.shape[0]
     n_blocks = (width + _BLOCK - 1) // _BLOCK
@@ -214,24 +273,122 @@ def _render_kernel(
         r_q = np.empty((3, height))
         for u in range(block * _BLOCK, min(block * _BLOCK + _BLOCK, width)):
             _render_column(
-                cam, u, origins, centre, dirs, hc, f, cy, height,
-                kind, ocx, ocy, ocos, osin, ohx, ohy, oh, ocolor, ofeat, ocontrast,
-                gcolor, gfeat, gcontrast, light, ambient, sky, sky_cols, sky_rows,
-                want_color, rgb, depth, ids,
-                t_in, t_out, nxs, nys, side_s, order,
-                r_best, r_hit, r_top, r_s, r_t, r_seed, r_feat, r_fp, r_tex, r_q,
-            )  # fmt: skip
+                # the column drawn: its camera and image column
+                cam,
+                u,
+                # the cameras and their rays
+                origins,
+                centre,
+                dirs,
+                hc,
+                f,
+                cy,
+                height,
+                # footprints, one entry per obstacle
+                kind,
+                ocx,
+                ocy,
+                ocos,
+                osin,
+                ohx,
+                ohy,
+                oh,
+                ocolor,
+                ofeat,
+                ocontrast,
+                # ground, light and sky
+                gcolor,
+                gfeat,
+                gcontrast,
+                light,
+                ambient,
+                sky,
+                sky_cols,
+                sky_rows,
+                # whether to draw the images, and the outputs
+                want_color,
+                rgb,
+                depth,
+                ids,
+                # scratch per obstacle
+                t_in,
+                t_out,
+                nxs,
+                nys,
+                side_s,
+                order,
+                # scratch per row
+                r_best,
+                r_hit,
+                r_top,
+                r_s,
+                r_t,
+                r_seed,
+                r_feat,
+                r_fp,
+                r_tex,
+                r_q,
+            )
 
 
 @numba.njit(cache=True, fastmath={"nsz", "arcp", "contract", "afn"})
 def _render_column(
-    cam, u, origins, centre, dirs, hc, f, cy, height,
-    kind, ocx, ocy, ocos, osin, ohx, ohy, oh, ocolor, ofeat, ocontrast,
-    gcolor, gfeat, gcontrast, light, ambient, sky, sky_cols, sky_rows,
-    want_color, rgb, depth, ids,
-    t_in, t_out, nxs, nys, side_s, order,
-    r_best, r_hit, r_top, r_s, r_t, r_seed, r_feat, r_fp, r_tex, r_q,
-):  # fmt: skip
+    # the column drawn: its camera and image column
+    cam,
+    u,
+    # the cameras and their rays
+    origins,
+    centre,
+    dirs,
+    hc,
+    f,
+    cy,
+    height,
+    # footprints, one entry per obstacle
+    kind,
+    ocx,
+    ocy,
+    ocos,
+    osin,
+    ohx,
+    ohy,
+    oh,
+    ocolor,
+    ofeat,
+    ocontrast,
+    # ground, light and sky
+    gcolor,
+    gfeat,
+    gcontrast,
+    light,
+    ambient,
+    sky,
+    sky_cols,
+    sky_rows,
+    # whether to draw the images, and the outputs
+    want_color,
+    rgb,
+    depth,
+    ids,
+    # scratch per obstacle
+    t_in,
+    t_out,
+    nxs,
+    nys,
+    side_s,
+    order,
+    # scratch per row
+    r_best,
+    r_hit,
+    r_top,
+    r_s,
+    r_t,
+    r_seed,
+    r_feat,
+    r_fp,
+    r_tex,
+    r_q,
+):
     n = kind.shape[0]
     ox, oy = origins[cam, 0], origins[cam, 1]
     dx, dy = dirs[cam, u, 0], dirs[cam, u, 1]

@@ -119,8 +119,10 @@ def sample_truth(
     ids = [level_ids[..., r, c] for r, c in corners]
     same = (ids[0] == ids[1]) & (ids[0] == ids[2]) & (ids[0] == ids[3])
     with np.errstate(divide="ignore"):
-        inverse = sum(w / level_depth[..., r, c].astype(np.float64) for w, (r, c) in
-                      zip(weights, corners, strict=True))  # fmt: skip
+        inverse = sum(
+            w / level_depth[..., r, c].astype(np.float64)
+            for w, (r, c) in zip(weights, corners, strict=True)
+        )
         smooth = 1.0 / inverse
     iu = np.floor(warp.u + 0.5).astype(np.intp)
     iv = np.floor(warp.v + 0.5).astype(np.intp)

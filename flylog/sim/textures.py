@@ -79,9 +79,16 @@ def texture_column(s, t, seed, feature_size, footprint, lo, hi, out, scratch):
             # Slices, so that the loop index is known to be non-negative (no wraparound
             # branch in the loop): that is what lets the loop vectorise.
             _add_octave(
-                qs[first:last], qt[first:last], qf[first:last], seed[first:last],
-                k, mult, 1.0 / mult, weight, out[first:last],
-            )  # fmt: skip
+                qs[first:last],
+                qt[first:last],
+                qf[first:last],
+                seed[first:last],
+                k,
+                mult,
+                1.0 / mult,
+                weight,
+                out[first:last],
+            )
 
 
 @numba.njit(cache=True, error_model="numpy")
