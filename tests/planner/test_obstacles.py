@@ -91,8 +91,12 @@ def test_dense_cells_kernel_matches_its_numpy_reference_bit_for_bit(half_width, 
     counts = rng.poisson(0.7, (40, 40))
     if weighted:  # depth weights as the planner's map sums them: float64 in (0, 1]
         counts = counts * rng.uniform(0.05, 1.0, counts.shape)
-    for rows, cols in ((slice(None), slice(None)), (slice(5, 37), slice(-12, None)),
-                       (slice(0, 3), slice(30, 60)), (slice(9, 9), slice(None))):  # fmt: skip
+    for rows, cols in (
+        (slice(None), slice(None)),
+        (slice(5, 37), slice(-12, None)),
+        (slice(0, 3), slice(30, 60)),
+        (slice(9, 9), slice(None)),
+    ):
         for threshold in (10.0, 40.0, float(np.median(counts)) * 100.0):
             got = obs.dense_cells(counts, 0.1, half_width, threshold, rows, cols)
             want = dense_cells_numpy(counts, 0.1, half_width, threshold, rows, cols)

@@ -67,8 +67,11 @@ def test_the_warm_starts_optimal_over_relaxation_settles_the_field_in_a_quarter_
     points = [(x, y) for x in np.linspace(-9.0, 9.0, 13) for y in np.linspace(-9.0, 9.0, 13)]
     runs = []
     # at the ticks' omega, at the warm start's, and the field itself (relaxed to 1e-14)
-    for omega, tolerance in ((cfg.omega, 1e-10), (cfg.warm_start_omega, 1e-10),
-                             (cfg.warm_start_omega, 1e-14)):  # fmt: skip
+    for omega, tolerance in (
+        (cfg.omega, 1e-10),
+        (cfg.warm_start_omega, 1e-10),
+        (cfg.warm_start_omega, 1e-14),
+    ):
         p = HarmonicPlanner.centred_on(cfg, (0.0, 0.0), (6.0, 0.0))
         result = p.relax_until(tolerance, 50_000, chunk=100, omega=omega)
         runs.append((result, np.array([p.value(x, y) for x, y in points])))

@@ -53,8 +53,13 @@ def test_recoveries_run_in_order_then_the_goal_is_unreachable():
     assert p.goal_cut_off(Pose2D(0.0, 0.0, 0.0))
     phases = [c.recovery for _, c, _ in ticks]
     order = [ph for k, ph in enumerate(phases) if k == 0 or ph is not phases[k - 1]]
-    assert order == [Recovery.NONE, Recovery.LOOK_AROUND, Recovery.CLEAR_STALE,
-                     Recovery.BACK_UP, Recovery.EXHAUSTED]  # fmt: skip
+    assert order == [
+        Recovery.NONE,
+        Recovery.LOOK_AROUND,
+        Recovery.CLEAR_STALE,
+        Recovery.BACK_UP,
+        Recovery.EXHAUSTED,
+    ]
     first = phases.index(Recovery.LOOK_AROUND)
     assert ticks[first][0] == 0.5  # after cut_off_time
     look = [(c, pose) for _, c, pose in ticks if c.recovery is Recovery.LOOK_AROUND]

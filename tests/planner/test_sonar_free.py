@@ -21,9 +21,12 @@ WALL_FLIES = 60  # per wall: few beyond the false matches, as in the doorways fa
 def _reading(ranges):
     config = SonarConfig()
     return SonarReading(
-        0, np.asarray(ranges, dtype=float), config.mounts(), math.radians(config.cone_deg),
+        0,
+        np.asarray(ranges, dtype=float),
+        config.mounts(),
+        math.radians(config.cone_deg),
         config.max_range,
-    )  # fmt: skip
+    )
 
 
 def test_free_cones_reach_the_echo_less_the_margin_or_the_maximum_range_without_one():
@@ -64,8 +67,12 @@ def test_cone_cells_kernel_matches_its_numpy_reference_bit_for_bit(seed):
     ranges = rng.uniform(0.05, 3.0, 6)
     ranges[rng.random(6) < 0.3] = np.nan
     cones = free_cones(_reading(ranges), pose, 0.15)
-    for rows, cols in ((slice(None), slice(None)), (slice(20, 95), slice(-30, None)),
-                       (slice(90, 130), slice(0, 7)), (slice(50, 40), slice(None))):  # fmt: skip
+    for rows, cols in (
+        (slice(None), slice(None)),
+        (slice(20, 95), slice(-30, None)),
+        (slice(90, 130), slice(0, 7)),
+        (slice(50, 40), slice(None)),
+    ):
         got = cone_cells(geometry, cones, HALF, rows, cols)
         want = cone_cells_numpy(geometry, cones, HALF, rows, cols)
         assert got.dtype == want.dtype and got.shape == want.shape
