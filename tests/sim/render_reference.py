@@ -60,9 +60,24 @@ def render_reference(scene: Scene, rig: StereoRig, pose: Pose2D) -> RenderedPair
             hit = np.where(np.isinf(best), -2, hit)
             top = pick > n
             depth[:, u], ids[:, u] = best, hit
-            img[:, u] = _shade_column_numpy(a, hc, rig.focal_px, ox, oy, centre, dx, dy, slope,
-                                            best, hit, top, nxs, nys, sky_cols[0, u],
-                                            sky_rows)  # fmt: skip
+            img[:, u] = _shade_column_numpy(
+                a,
+                hc,
+                rig.focal_px,
+                ox,
+                oy,
+                centre,
+                dx,
+                dy,
+                slope,
+                best,
+                hit,
+                top,
+                nxs,
+                nys,
+                sky_cols[0, u],
+                sky_rows,
+            )
         images.append(img)
         if depth0 is None:
             depth0, ids0 = depth, ids

@@ -177,8 +177,9 @@ def test_exposure_poses_spread_over_the_exposure_along_the_arc():
     assert np.mean([p.x for p in straight]) == pytest.approx(pose.x)
     assert np.mean([p.y for p in straight]) == pytest.approx(pose.y)
     turning = exposure_poses(pose, 0.0, 1.0, d)
-    np.testing.assert_allclose([p.theta - pose.theta for p in turning],
-                               [-0.003, -0.001, 0.001, 0.003], atol=1e-12)  # fmt: skip
+    np.testing.assert_allclose(
+        [p.theta - pose.theta for p in turning], [-0.003, -0.001, 0.001, 0.003], atol=1e-12
+    )
     assert exposure_poses(pose, 0.5, 1.0, dataclasses.replace(d, motion_samples=1)) == [pose]
 
 

@@ -81,13 +81,18 @@ def test_same_seed_same_messages_other_seed_differs(corridor_log, tmp_path):
     simulate(load_scene(SCENES / "corridor.toml"), again, SMALL)
     assert _messages(again) == _messages(path)
     other = tmp_path / "other.mcap"
-    simulate(load_scene(SCENES / "corridor.toml"), other, SimulationOptions(
-        duration=1.0, seed=4, resolution=(64, 48)))  # fmt: skip
+    simulate(
+        load_scene(SCENES / "corridor.toml"),
+        other,
+        SimulationOptions(duration=1.0, seed=4, resolution=(64, 48)),
+    )
     assert _messages(other) != _messages(path)
 
 
-@pytest.mark.skipif(shutil.which("pymcap-cli") is None and not Path(
-    ".venv/bin/pymcap-cli").exists(), reason="pymcap-cli not installed")  # fmt: skip
+@pytest.mark.skipif(
+    shutil.which("pymcap-cli") is None and not Path(".venv/bin/pymcap-cli").exists(),
+    reason="pymcap-cli not installed",
+)
 def test_log_passes_mcap_doctor(corridor_log):
     path, _ = corridor_log
     exe = shutil.which("pymcap-cli") or ".venv/bin/pymcap-cli"
@@ -110,27 +115,36 @@ def test_interrupted_simulation_leaves_no_file(tmp_path):
 
 def test_cli_simulate_summary_line(tmp_path):
     out = tmp_path / "t.mcap"
+    options = ["--duration", "0.5", "--resolution", "64x48", "--frame-rate", "10", "--seed", "1"]
     result = CliRunner().invoke(
-        cli,
-        ["simulate", str(SCENES / "turn.toml"), "-o", str(out), "--duration", "0.5",
-         "--resolution", "64x48", "--frame-rate", "10", "--seed", "1"],
-    )  # fmt: skip
+        cli, ["simulate", str(SCENES / "turn.toml"), "-o", str(out), *options]
+    )
     assert result.exit_code == 0, result.output
     assert "6 stereo frames" in result.output and "real time" in result.output
     assert open_log(out).topics()[contract.LEFT_IMAGE].count == 6
 
 
+BOX_BELOW_GROUND = """name = "x"
+[[obstacles]]
+kind = "box"
+center = [1, 0]
+size = [1, 1]
+height = -2
+"""
+
+
 @pytest.mark.parametrize(
     ("scene_text", "needle"),
     [
-        ('name = "x"\n[[obstacles]]\nkind = "box"\ncenter = [1, 0]\nsize = [1, 1]\nheight = -2\n',
-         "field 'obstacles[0].height': must be at least"),
+        (BOX_BELOW_GROUND, "field 'obstacles[0].height': must be at least"),
         ('name = "x"\n[camera]\nwidth = "wide"\n', "field 'camera.width': expected an integer"),
-        ('name = "x"\n[[obstacles]]\nkind = "cone"\n',
-         "field 'obstacles[0].kind': expected one of"),
+        (
+            'name = "x"\n[[obstacles]]\nkind = "cone"\n',
+            "field 'obstacles[0].kind': expected one of",
+        ),
         ("name = [\n", "not valid TOML"),
     ],
-)  # fmt: skip
+)
 def test_bad_scene_exit_2_names_file_and_field_and_writes_nothing(tmp_path, scene_text, needle):
     scene = tmp_path / "bad.toml"
     scene.write_text(scene_text)
@@ -142,7 +156,8 @@ def test_bad_scene_exit_2_names_file_and_field_and_writes_nothing(tmp_path, scen
 
 
 def test_cli_rejects_bad_resolution(tmp_path):
+    out = tmp_path / "x.mcap"
     result = CliRunner().invoke(
-        cli, ["simulate", str(SCENES / "turn.toml"), "-o", str(tmp_path / "x.mcap"),
-              "--resolution", "big"])  # fmt: skip
+        cli, ["simulate", str(SCENES / "turn.toml"), "-o", str(out), "--resolution", "big"]
+    )
     assert result.exit_code == 2 and "WIDTHxHEIGHT" in result.output
