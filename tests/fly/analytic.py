@@ -116,9 +116,13 @@ def default_sonar_reading(scene: Scene, pose: Pose2D | None = None) -> SonarRead
     """:func:`sonar_reading` of the default sonar ring (SonarConfig()) at ``pose``."""
     sonars = SonarConfig()
     return sonar_reading(
-        scene, pose or Pose2D(), sonars.mounts(), cone=math.radians(sonars.cone_deg),
-        max_range=sonars.max_range, height=sonars.mount_height,
-    )  # fmt: skip
+        scene,
+        pose or Pose2D(),
+        sonars.mounts(),
+        cone=math.radians(sonars.cone_deg),
+        max_range=sonars.max_range,
+        height=sonars.mount_height,
+    )
 
 
 def true_depth_at(depth: np.ndarray, rig: StereoRig, xyz: np.ndarray) -> np.ndarray:

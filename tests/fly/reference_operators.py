@@ -80,13 +80,29 @@ def offspring(
         out = np.empty((n, 3))
     if use_numba:
         newcomers_into(
-            rng, np.ascontiguousarray(parents, dtype=np.float64), float(rate2), float(rate3),
-            float(sigma_px), float(sigma_disparity_px),
-            newcomer_constants(rig, d_min, d_max, 0), out, np.empty((0, 3)),
-        )  # fmt: skip
+            rng,
+            np.ascontiguousarray(parents, dtype=np.float64),
+            float(rate2),
+            float(rate3),
+            float(sigma_px),
+            float(sigma_disparity_px),
+            newcomer_constants(rig, d_min, d_max, 0),
+            out,
+            np.empty((0, 3)),
+        )
         return out
     out[...], _ = newcomers_numpy(
-        rng, parents, n, 0, rig, rate2=rate2, rate3=rate3, sigma_px=sigma_px,
-        sigma_disparity_px=sigma_disparity_px, d_min=d_min, d_max=d_max, margin=0,
-    )  # fmt: skip
+        rng,
+        parents,
+        n,
+        0,
+        rig,
+        rate2=rate2,
+        rate3=rate3,
+        sigma_px=sigma_px,
+        sigma_disparity_px=sigma_disparity_px,
+        d_min=d_min,
+        d_max=d_max,
+        margin=0,
+    )
     return out

@@ -54,8 +54,11 @@ def test_shifted_points_keep_the_left_pixel_and_move_the_disparity():
 
 def test_all_shifts_at_once_equal_one_shift_at_a_time_bit_for_bit():
     rng = np.random.default_rng(3)
-    xyz = RIG.backproject(rng.uniform(-20, RIG.width + 20, 500),
-                          rng.uniform(0, RIG.height, 500), rng.uniform(0.3, 30.0, 500))  # fmt: skip
+    xyz = RIG.backproject(
+        rng.uniform(-20, RIG.width + 20, 500),
+        rng.uniform(0, RIG.height, 500),
+        rng.uniform(0.3, 30.0, 500),
+    )
     xyz[::17, 0] = RIG.mount_x - 0.2  # behind the cameras
     shifts = (-40, -4, -2, 2, 4)
     shifted, valid = shifted_along_epipolar(xyz, RIG, shifts)
@@ -73,11 +76,13 @@ def test_all_shifts_at_once_equal_one_shift_at_a_time_bit_for_bit():
 @pytest.mark.parametrize("use_numba", [False, True])
 def test_true_depth_is_distinct_and_a_wrong_one_is_not(use_numba):
     left, right = _textured_pair()
-    true = distinctness(left, right, _flies_at(TRUE_DISPARITY), RIG, WINDOW, GUARD, SHIFTS,
-                        use_numba=use_numba)  # fmt: skip
+    true = distinctness(
+        left, right, _flies_at(TRUE_DISPARITY), RIG, WINDOW, GUARD, SHIFTS, use_numba=use_numba
+    )
     # 2 px off: the true disparity is one of its rivals
-    wrong = distinctness(left, right, _flies_at(TRUE_DISPARITY + 2), RIG, WINDOW, GUARD,
-                         SHIFTS, use_numba=use_numba)  # fmt: skip
+    wrong = distinctness(
+        left, right, _flies_at(TRUE_DISPARITY + 2), RIG, WINDOW, GUARD, SHIFTS, use_numba=use_numba
+    )
     assert true.min() > 10.0  # a perfect match (ZSSD 0) against random-texture rivals
     assert wrong.max() < 0.1
 
@@ -87,8 +92,9 @@ def test_horizontal_stripes_match_at_every_depth(gradient):
     """Rows vary, columns do not: every disparity matches as well as any other."""
     rows = np.random.default_rng(1).integers(0, 256, (RIG.height, 1, 3), dtype=np.uint8)
     image = np.ascontiguousarray(np.broadcast_to(rows, (RIG.height, RIG.width, 3)))
-    got = distinctness(image, image, _flies_at(TRUE_DISPARITY), RIG, WINDOW, GUARD, SHIFTS,
-                       gradient=gradient)  # fmt: skip
+    got = distinctness(
+        image, image, _flies_at(TRUE_DISPARITY), RIG, WINDOW, GUARD, SHIFTS, gradient=gradient
+    )
     if gradient is Gradient.NORM:
         np.testing.assert_array_equal(got, 1.0)  # G > 0, the same ZSSD (0) at every shift
     else:
@@ -102,8 +108,9 @@ def test_numba_and_numpy_agree_bit_for_bit():
     xyz[:5, 0] = -1.0  # behind the cameras: fitness invalid, distinctness 0
     for gradient in Gradient:
         a = distinctness(left, right, xyz, RIG, WINDOW, GUARD, SHIFTS, gradient=gradient)
-        b = distinctness(left, right, xyz, RIG, WINDOW, GUARD, SHIFTS, gradient=gradient,
-                         use_numba=False)  # fmt: skip
+        b = distinctness(
+            left, right, xyz, RIG, WINDOW, GUARD, SHIFTS, gradient=gradient, use_numba=False
+        )
         np.testing.assert_array_equal(a, b)
         assert (a[:5] == 0.0).all()
 
@@ -129,8 +136,9 @@ def test_a_false_match_on_a_striped_sky_loses_to_the_rival_at_infinity(use_numba
     np.testing.assert_array_equal(with_infinity, 1.0)  # infinity matches as well
     # a real surface at that disparity is not touched: infinity is a random mismatch there
     left, right = _textured_pair()
-    real = distinctness(left, right, phantom, RIG, WINDOW, GUARD, SHIFTS, infinity=True,
-                        use_numba=use_numba)  # fmt: skip
+    real = distinctness(
+        left, right, phantom, RIG, WINDOW, GUARD, SHIFTS, infinity=True, use_numba=use_numba
+    )
     assert real.min() > 10.0
 
 
@@ -163,8 +171,9 @@ def test_rule_measures_only_its_candidates_and_drops_indistinct_flies():
     candidates = rule.candidates(xyz, fitness, age)
     # the fly itself, its four shifted rivals and the rival at infinity
     assert rule.distinct_evaluations(candidates) == 18 * (1 + 4 + 1)
-    no_infinity = ObstacleFlies(quantile=0.1, min_age=3, min_distinctness=1.5,
-                                distinct_at_infinity=False)  # fmt: skip
+    no_infinity = ObstacleFlies(
+        quantile=0.1, min_age=3, min_distinctness=1.5, distinct_at_infinity=False
+    )
     assert no_infinity.distinct_evaluations(candidates) == 18 * (1 + 4)
     engine = EngineConfig(window=WINDOW, guard=GUARD)
     distinct = rule.distinct_of(xyz, candidates, pair, RIG, engine)

@@ -136,8 +136,9 @@ def test_step_without_images_and_wrong_images_are_errors():
 
 def test_grey_images_work(small_frame):
     pair = small_frame[0]
-    grey = StereoPair(0, pair.left.mean(axis=2).astype(np.uint8), pair.right.mean(axis=2).astype(
-        np.uint8))  # fmt: skip
+    grey = StereoPair(
+        0, pair.left.mean(axis=2).astype(np.uint8), pair.right.mean(axis=2).astype(np.uint8)
+    )
     engine, _ = run(EngineConfig(flies=500), (grey,), generations=3)
     assert fitness_summary(engine.population.fitness)[1] > 400
 
@@ -161,9 +162,13 @@ def test_crossover_switches(small_frame):
     still = dict(mutation_scale=0.0, disparity_mutation_scale=0.0, immigration_fraction=0.0)
     for on, off_survivors in ((False, 0.0), (True, 0.5)):
         cfg = EngineConfig(
-            flies=600, crossover2=on, crossover3=on, crossover2_rate=0.5, crossover3_rate=0.5,
+            flies=600,
+            crossover2=on,
+            crossover3=on,
+            crossover2_rate=0.5,
+            crossover3_rate=0.5,
             **still,
-        )  # fmt: skip
+        )
         engine, _ = run(cfg, small_frame, generations=2)
         xyz = engine.population.xyz
         survivors, children = xyz[: cfg.survivors], xyz[cfg.survivors :]
@@ -217,11 +222,10 @@ def test_motion_recomputes_the_sonar_term_and_new_images_every_fitness(sonar_sce
     after = engine.population
     assert survivors > 0 and not after.stale.any()
     # every fly's sonar term is that of where it is now, survivors included
-    fused = sonar_fused(after.vision, after.xyz, reading, bonus=cfg.sonar_bonus,
-                        tolerance=cfg.sonar_tolerance, use_numba=False)  # fmt: skip
+    fusion = dict(bonus=cfg.sonar_bonus, tolerance=cfg.sonar_tolerance, use_numba=False)
+    fused = sonar_fused(after.vision, after.xyz, reading, **fusion)
     np.testing.assert_allclose(after.fitness, fused, rtol=1e-12)
-    stale_bonus = sonar_fused(before.vision, before.xyz, reading, bonus=cfg.sonar_bonus,
-                              tolerance=cfg.sonar_tolerance, use_numba=False)  # fmt: skip
+    stale_bonus = sonar_fused(before.vision, before.xyz, reading, **fusion)
     assert not np.array_equal(stale_bonus, before.fitness)  # the motion did change bonuses
     engine.set_images(pair)
     assert engine.population.stale.all()
@@ -322,9 +326,13 @@ def test_fitness_is_fused_with_the_newest_reading(sonar_scene, backend):
     def check(r):
         pop = engine.population
         expected = sonar_fused(
-            pop.vision, pop.xyz, r, bonus=cfg.sonar_bonus, tolerance=cfg.sonar_tolerance,
+            pop.vision,
+            pop.xyz,
+            r,
+            bonus=cfg.sonar_bonus,
+            tolerance=cfg.sonar_tolerance,
             use_numba=False,
-        )  # fmt: skip
+        )
         np.testing.assert_array_equal(pop.fitness, expected)
         return int((pop.fitness != pop.vision).sum())
 

@@ -104,8 +104,8 @@ def test_sonar_immigrants_on_arc_in_cone_and_in_view():
     assert (u <= RIG.width - 4).all() and (v >= 3).all() and (v <= RIG.height - 4).all()
     assert xyz[:, 2].min() >= 0 and xyz[:, 2].max() <= RIG.mount_height
     # Both fired sonars get immigrants.
-    assert set(np.unique(sonar_confirmations(xyz[:, :], reading([np.nan, np.nan, 1.2, np.nan,
-               np.nan, np.nan]), 0.1 + 1e-9))) == {0, 1}  # fmt: skip
+    one_fired = reading([np.nan, np.nan, 1.2, np.nan, np.nan, np.nan])
+    assert set(np.unique(sonar_confirmations(xyz[:, :], one_fired, 0.1 + 1e-9))) == {0, 1}
 
 
 def test_sonar_immigrants_none_when_arc_out_of_view():
@@ -234,7 +234,7 @@ def test_score_kernel_equals_fitness_then_fusion(with_sonar):
     r = reading([np.nan, 1.0, np.nan, 1.2, np.nan, np.nan])
     xyz[:100, :2] = sonar_immigrants(rng, r, 100, RIG, tolerance=0.1, margin=3)[:, :2][
         rng.integers(0, 10, 100)
-    ]  # fmt: skip
+    ]
     index = np.arange(50, 400, 2)
     fuse = np.arange(400)
     vision = np.full(400, INVALID_FITNESS)

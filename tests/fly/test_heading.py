@@ -66,8 +66,9 @@ def test_the_scan_finds_the_turn_the_odometry_missed(corridor, increment, error_
     rig, _, _, first, points = corridor
     after = _after(corridor, increment, error_px)
     config = HeadingConfig()
-    found = measure_yaw((first.left, first.right), (after.left, after.right), points,
-                        increment, rig, config)  # fmt: skip
+    found = measure_yaw(
+        (first.left, first.right), (after.left, after.right), points, increment, rig, config
+    )
     assert found.flies == config.flies
     assert found.yaw is not None
     assert found.yaw * rig.focal_px == pytest.approx(error_px, abs=0.1)
@@ -79,8 +80,8 @@ def test_numba_and_numpy_scans_agree(corridor):
     after = _after(corridor, increment, 0.4)
     offsets = HeadingConfig().offsets(rig.focal_px)
     chosen = points[comparable_flies(points, increment, rig, offsets, 7)][:500]
-    args = ((first.left, first.right), (after.left, after.right), chosen, increment, rig,
-            offsets, 7, 1.0)  # fmt: skip
+    pairs = (first.left, first.right), (after.left, after.right)
+    args = (*pairs, chosen, increment, rig, offsets, 7, 1.0)
     np.testing.assert_allclose(yaw_scores_numba(*args), yaw_scores_numpy(*args), rtol=1e-12)
 
 
@@ -88,8 +89,9 @@ def test_grey_images_give_the_same_scan_as_numpy(corridor):
     rig, _, _, first, points = corridor
     increment = Pose2D(0.0, 0.0, -TURN)
     after = _after(corridor, increment, -0.3)
-    grey = [np.ascontiguousarray(a[:, :, 1]) for a in (first.left, first.right, after.left,
-                                                       after.right)]  # fmt: skip
+    grey = [
+        np.ascontiguousarray(a[:, :, 1]) for a in (first.left, first.right, after.left, after.right)
+    ]
     offsets = HeadingConfig().offsets(rig.focal_px)
     chosen = points[comparable_flies(points, increment, rig, offsets, 5)][:300]
     args = ((grey[0], grey[1]), (grey[2], grey[3]), chosen, increment, rig, offsets, 5, 1.0)
@@ -100,8 +102,8 @@ def test_too_few_flies_measure_nothing(corridor):
     rig, _, _, first, points = corridor
     after = _after(corridor, Pose2D(0.0, 0.0, TURN), 0.5)
     config = HeadingConfig(min_flies=100)
-    found = measure_yaw((first.left, first.right), (after.left, after.right), points[:50],
-                        Pose2D(0.0, 0.0, TURN), rig, config)  # fmt: skip
+    pairs = (first.left, first.right), (after.left, after.right)
+    found = measure_yaw(*pairs, points[:50], Pose2D(0.0, 0.0, TURN), rig, config)
     assert found.yaw is None
     assert found.flies <= 50
 

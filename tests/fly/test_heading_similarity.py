@@ -64,8 +64,8 @@ def test_numba_and_numpy_scans_agree_for_every_measure(corridor, similarity):
     after = renderer.render(compose(compose(start, increment), Pose2D(0.0, 0.0, 0.4 / 250)))
     offsets = HeadingConfig().offsets(rig.focal_px)
     chosen = points[comparable_flies(points, increment, rig, offsets, 7)][:300]
-    args = ((first.left, first.right), (after.left, after.right), chosen, increment, rig,
-            offsets, 7, 1.0, similarity)  # fmt: skip
+    pairs = (first.left, first.right), (after.left, after.right)
+    args = (*pairs, chosen, increment, rig, offsets, 7, 1.0, similarity)
     np.testing.assert_allclose(yaw_scores_numba(*args), yaw_scores_numpy(*args), rtol=1e-12)
 
 
@@ -94,9 +94,10 @@ def test_zncc_measures_the_turn_when_the_later_pair_is_brighter(corridor):
     rig, renderer, start, first, points = corridor
     increment, error_px = Pose2D(0.0, 0.0, TURN), 0.6
     after = renderer.render(compose(compose(start, increment), Pose2D(0.0, 0.0, error_px / 250)))
-    bright = [np.clip(1.25 * a.astype(float), 0, 255).astype(np.uint8)
-              for a in (after.left, after.right)]  # fmt: skip
-    found = measure_yaw((first.left, first.right), tuple(bright), points, increment, rig,
-                        HeadingConfig(), similarity=Similarity.ZNCC)  # fmt: skip
+    bright = [
+        np.clip(1.25 * a.astype(float), 0, 255).astype(np.uint8) for a in (after.left, after.right)
+    ]
+    pairs = (first.left, first.right), tuple(bright)
+    found = measure_yaw(*pairs, points, increment, rig, HeadingConfig(), similarity=Similarity.ZNCC)
     assert found.yaw is not None
     assert found.yaw * rig.focal_px == pytest.approx(error_px, abs=0.1)

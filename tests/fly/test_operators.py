@@ -104,9 +104,14 @@ def test_mutation_is_gaussian_in_image_and_disparity():
     rng = np.random.default_rng(1)
     parent = RIG.backproject(np.array([320.0]), np.array([240.0]), np.array([2.0]))
     xyz = mutated(
-        rng, np.repeat(parent, 50_000, axis=0), RIG,
-        sigma_px=3.0, sigma_disparity_px=1.5, d_min=0.5, d_max=20.0,
-    )  # fmt: skip
+        rng,
+        np.repeat(parent, 50_000, axis=0),
+        RIG,
+        sigma_px=3.0,
+        sigma_disparity_px=1.5,
+        d_min=0.5,
+        d_max=20.0,
+    )
     u, ur, v, _ = RIG.project(xyz)
     assert np.std(u) == pytest.approx(3.0, rel=0.02)
     assert np.std(v) == pytest.approx(3.0, rel=0.02)
@@ -118,9 +123,14 @@ def test_mutation_keeps_depth_within_search_range():
     rng = np.random.default_rng(2)
     parent = RIG.backproject(np.array([320.0]), np.array([240.0]), np.array([0.55]))
     xyz = mutated(
-        rng, np.repeat(parent, 1000, axis=0), RIG,
-        sigma_px=1.0, sigma_disparity_px=50.0, d_min=0.5, d_max=20.0,
-    )  # fmt: skip
+        rng,
+        np.repeat(parent, 1000, axis=0),
+        RIG,
+        sigma_px=1.0,
+        sigma_disparity_px=50.0,
+        d_min=0.5,
+        d_max=20.0,
+    )
     depth = xyz[:, 0] - RIG.mount_x
     assert depth.min() >= 0.5 - 1e-9 and depth.max() <= 20.0 + 1e-9
 
@@ -145,8 +155,9 @@ def test_three_parent_crossover_lies_in_the_triangle():
         lam_mu, *_ = np.linalg.lstsq(m, child[i] - c[i], rcond=None)
         weights.append(lam_mu)
     w = np.array(weights)
-    np.testing.assert_allclose(child, w[:, :1] * a + w[:, 1:] * b + (1 - w.sum(1))[:, None] * c,
-                               atol=1e-9)  # fmt: skip
+    np.testing.assert_allclose(
+        child, w[:, :1] * a + w[:, 1:] * b + (1 - w.sum(1))[:, None] * c, atol=1e-9
+    )
     assert w.min() >= -1e-9 and w.sum(axis=1).max() <= 1 + 1e-9
     # Uniform on the triangle: each weight has mean 1/3.
     np.testing.assert_allclose(w.mean(axis=0), [1 / 3, 1 / 3], atol=0.02)
@@ -157,12 +168,21 @@ def test_offspring_operator_shares(rate2, rate3):
     rng = np.random.default_rng(5)
     # Parents on three distinct depths far apart: mutation (σ = 0) copies a parent exactly
     # in depth, crossovers land between them.
-    parents = RIG.backproject(np.array([300.0, 320, 340]), np.array([240.0] * 3), np.array(
-        [1.0, 2.0, 4.0]))  # fmt: skip
+    parents = RIG.backproject(
+        np.array([300.0, 320, 340]), np.array([240.0] * 3), np.array([1.0, 2.0, 4.0])
+    )
     kids = offspring(
-        rng, parents, 20_000, RIG, rate2=rate2, rate3=rate3,
-        sigma_px=0.0, sigma_disparity_px=0.0, d_min=0.5, d_max=20.0,
-    )  # fmt: skip
+        rng,
+        parents,
+        20_000,
+        RIG,
+        rate2=rate2,
+        rate3=rate3,
+        sigma_px=0.0,
+        sigma_disparity_px=0.0,
+        d_min=0.5,
+        d_max=20.0,
+    )
     depth = kids[:, 0] - RIG.mount_x
     copies = np.isclose(depth[:, None], [1.0, 2.0, 4.0], rtol=1e-9).any(axis=1)
     # Crossover of two equal parents is also a copy: P = 1/3 with 3 parents drawn uniformly.
@@ -187,9 +207,16 @@ def test_newcomers_kernel_equals_reference(seed, n, n_uniform, rates):
     )
     got_children, got_uniform = np.empty((n, 3)), np.empty((n_uniform, 3))
     newcomers_into(
-        b, parents, rates[0], rates[1], 3.4, 1.7, newcomer_constants(RIG, 0.5, 20.0, 3),
-        got_children, got_uniform,
-    )  # fmt: skip
+        b,
+        parents,
+        rates[0],
+        rates[1],
+        3.4,
+        1.7,
+        newcomer_constants(RIG, 0.5, 20.0, 3),
+        got_children,
+        got_uniform,
+    )
     np.testing.assert_array_equal(got_children, children)
     np.testing.assert_array_equal(got_uniform, uniform)
     # the two consumed the same numbers: the streams go on alike
@@ -200,9 +227,19 @@ def test_uniform_immigrants_are_random_flies():
     # the newcomers' uniform immigrants are the initialisation's flies, same draws
     expected = random_flies(np.random.default_rng(3), RIG, 40, d_min=0.5, d_max=20.0, margin=3)
     _, uniform = newcomers_numpy(
-        np.random.default_rng(3), expected[:1], 0, 40, RIG, rate2=0.1, rate3=0.1,
-        sigma_px=1.0, sigma_disparity_px=1.0, d_min=0.5, d_max=20.0, margin=3,
-    )  # fmt: skip
+        np.random.default_rng(3),
+        expected[:1],
+        0,
+        40,
+        RIG,
+        rate2=0.1,
+        rate3=0.1,
+        sigma_px=1.0,
+        sigma_disparity_px=1.0,
+        d_min=0.5,
+        d_max=20.0,
+        margin=3,
+    )
     np.testing.assert_array_equal(uniform, expected)
 
 
@@ -266,9 +303,14 @@ def test_offspring_written_into_out(use_numba):
     expected = offspring(np.random.default_rng(7), parents, 50, RIG, **options)
     out = np.zeros((60, 3))
     got = offspring(
-        np.random.default_rng(7), parents, 50, RIG, **options, use_numba=use_numba,
+        np.random.default_rng(7),
+        parents,
+        50,
+        RIG,
+        **options,
+        use_numba=use_numba,
         out=out[5:55],
-    )  # fmt: skip
+    )
     np.testing.assert_array_equal(out[5:55], expected)
     assert np.shares_memory(got, out) and (out[:5] == 0).all() and (out[55:] == 0).all()
 
@@ -289,8 +331,9 @@ def test_fly_counts_equal_the_reference_on_projected_flies():
     assert expected.max() > 5  # crowded flies: the test can fail
     counter = NeighbourCounter()
     counts = np.full(3000, -7, dtype=np.int64)
-    fly_neighbour_counts_into(xyz, rig_constants(RIG), fitness, radius, *counter.scratch(3000),
-                              counts)  # fmt: skip
+    fly_neighbour_counts_into(
+        xyz, rig_constants(RIG), fitness, radius, *counter.scratch(3000), counts
+    )
     np.testing.assert_array_equal(counts, expected)
 
 
@@ -303,10 +346,12 @@ def test_counts_for_every_crowding_of_the_cells(crowd):
     radius = 2.0
     corners = np.arange(4) * radius + 10.0
     cu, cv = (c.ravel() for c in np.meshgrid(corners, corners))
-    u = np.concatenate([np.repeat(cu, crowd) + rng.uniform(0, radius, 16 * crowd),
-                        rng.uniform(0, 40, 60)])  # fmt: skip
-    v = np.concatenate([np.repeat(cv, crowd) + rng.uniform(0, radius, 16 * crowd),
-                        rng.uniform(0, 40, 60)])  # fmt: skip
+    u = np.concatenate(
+        [np.repeat(cu, crowd) + rng.uniform(0, radius, 16 * crowd), rng.uniform(0, 40, 60)]
+    )
+    v = np.concatenate(
+        [np.repeat(cv, crowd) + rng.uniform(0, radius, 16 * crowd), rng.uniform(0, 40, 60)]
+    )
     valid = rng.random(len(u)) < 0.95
     expected = neighbour_counts_numpy(u, v, valid, radius)
     assert expected.max() >= crowd - 1  # the crowded cells count: the test can fail

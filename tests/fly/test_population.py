@@ -36,9 +36,8 @@ def test_survivors_then_into_reused_arrays_equals_a_new_population():
 
 def test_fitness_summary_known_values():
     assert fitness_summary(np.array([INVALID_FITNESS, 3.0, 1.0, 2.0, 4.0])) == (4.0, 4, 2.5)
-    assert fitness_summary(np.array([INVALID_FITNESS, INVALID_FITNESS])) == (
-        INVALID_FITNESS, 0, INVALID_FITNESS,
-    )  # fmt: skip
+    none_valid = fitness_summary(np.array([INVALID_FITNESS, INVALID_FITNESS]))
+    assert none_valid == (INVALID_FITNESS, 0, INVALID_FITNESS)
 
 
 @pytest.mark.parametrize("sharing", [False, True])

@@ -63,8 +63,10 @@ def test_contrast_zncc_ranks_noisy_texture_over_flat_noise():
     rng = np.random.default_rng(11)
     scene = np.full((SMALL.height, SMALL.width), 100.0)
     scene[:, :32] += rng.normal(0.0, 40.0, (SMALL.height, 32))
-    left, right = (np.clip(scene + rng.normal(0.0, 5.0, scene.shape), 0, 255).astype(np.uint8)
-                   for _ in range(2))  # fmt: skip
+    left, right = (
+        np.clip(scene + rng.normal(0.0, 5.0, scene.shape), 0, 255).astype(np.uint8)
+        for _ in range(2)
+    )
     u, v = np.meshgrid(np.arange(5.0, 59.0), np.arange(5.0, 43.0))
     xyz = SMALL.backproject(u.ravel(), v.ravel(), np.full(u.size, 1e9))  # same columns
     textured, flat = u.ravel() < 28, u.ravel() > 36

@@ -148,8 +148,9 @@ def test_scouts_find_the_depth_of_what_enters_the_view(panel_frame):
     # floor below it). Best of 16 depths, a scout is on the surface (within 5 %) far more
     # often than a uniform immigrant (measured: 0.39 against 0.03).
     _, depth = panel_frame
-    cfg = EngineConfig(flies=2000, scouting=True, immigration_fraction=0.1, scout_fraction=1.0,
-                       scout_candidates=16)  # fmt: skip
+    cfg = EngineConfig(
+        flies=2000, scouting=True, immigration_fraction=0.1, scout_fraction=1.0, scout_candidates=16
+    )
 
     def on_surface(config):
         engine, _ = turned_engine(config, panel_frame, -0.06)

@@ -33,14 +33,22 @@ def _plain_zncc_fitness(left, right, xyz, window, guard):
 def test_normalised_kernels_equal_numpy_reference(similarity, gradient, channels, window):
     """The measures on ZNCC's sums (zncc, gain_zssd, contrast_zncc), compiled against numpy."""
     left, right, xyz = random_case(window * 10 + channels, channels)
-    want = fitness_numpy(left, right, xyz, SMALL, window, 1.0, gradient=gradient,
-                         similarity=similarity)  # fmt: skip
+    want = fitness_numpy(
+        left, right, xyz, SMALL, window, 1.0, gradient=gradient, similarity=similarity
+    )
     assert (want > 0).sum() > 20
     for parallel_min in (0, 10**9):
         got = fitness_numba(
-            left, right, xyz, SMALL, window, 1.0, gradient=gradient, similarity=similarity,
+            left,
+            right,
+            xyz,
+            SMALL,
+            window,
+            1.0,
+            gradient=gradient,
+            similarity=similarity,
             parallel_min=parallel_min,
-        )  # fmt: skip
+        )
         np.testing.assert_array_equal(got, want)
 
 
@@ -88,9 +96,16 @@ def test_subpixel_kernel_equals_numpy_reference(similarity, channels, window):
     assert (want > 0).sum() > 20
     for parallel_min in (0, 10**9):
         got = fitness_numba(
-            left, right, xyz, SMALL, window, 1.0, similarity=similarity, subpixel=True,
+            left,
+            right,
+            xyz,
+            SMALL,
+            window,
+            1.0,
+            similarity=similarity,
+            subpixel=True,
             parallel_min=parallel_min,
-        )  # fmt: skip
+        )
         np.testing.assert_array_equal(got, want)
 
 
