@@ -81,8 +81,18 @@ def _fitness_figures(pair: StereoPair, rig: StereoRig) -> list[dict]:
     index = np.arange(n)
 
     def score(parallel_min: int) -> None:
-        fitness_numba(pair.left, pair.right, xyz, rig, 7, 1.0, index=index, out=out,
-                      parallel_min=parallel_min, **measure)  # fmt: skip
+        fitness_numba(
+            pair.left,
+            pair.right,
+            xyz,
+            rig,
+            7,
+            1.0,
+            index=index,
+            out=out,
+            parallel_min=parallel_min,
+            **measure,
+        )
 
     fitness_numba(pair.left, pair.right, xyz[:1000], rig, 7, 1.0, **measure)  # compile
     score(0)
@@ -115,8 +125,7 @@ def _fitness_figures(pair: StereoPair, rig: StereoRig) -> list[dict]:
 
     def fresh_batches() -> None:
         for batch in batches:
-            fitness_numba(pair.left, pair.right, xyz, rig, 7, 1.0, index=batch, out=out,
-                          **measure)  # fmt: skip
+            fitness_numba(pair.left, pair.right, xyz, rig, 7, 1.0, index=batch, out=out, **measure)
 
     fresh_rate = _best_rate(fresh_batches, n, 3)
     default = f"{cfg.similarity.value}{', sub-pixel' if cfg.subpixel else ''}, " + (
@@ -249,8 +258,9 @@ def _rig_kernel_figures(pair: StereoPair, rig: StereoRig) -> list[dict]:
     def call(name: str, parallel: bool, count: int) -> None:
         points, k = kernels[name]
         if k is None:
-            level_fitness(*rows, points, index[:count], level_constants(rig), outs[name],
-                          parallel=parallel)  # fmt: skip
+            level_fitness(
+                *rows, points, index[:count], level_constants(rig), outs[name], parallel=parallel
+            )
         else:
             im = images_of(pair.left, pair.right, rig, 7, 1.0, gradient=Gradient.NORM)
             parallel_min = 0 if parallel else n + 1
@@ -434,22 +444,61 @@ def _stage_figures(pair, reading, rig) -> list[dict]:
         m = int(a.stale.sum())
         sc.stale_index[:m] = np.flatnonzero(a.stale)
         what = "all 5000 stale flies (new pair)" if m == n else "stale flies (none)"
-        index = timed("row order, stale", rows_order_into, a.xyz, sc.stale_index[:m], im.k,
-                      height, sc.row_scratch)  # fmt: skip
+        index = timed(
+            "row order, stale",
+            rows_order_into,
+            a.xyz,
+            sc.stale_index[:m],
+            im.k,
+            height,
+            sc.row_scratch,
+        )
         timed(f"fitness, {what}", score_into, im, measure, fu, a, index, index)
-        timed("neighbour counts (grid)", fly_neighbour_counts_into, a.xyz, im.k, a.fitness,
-              se.radius, se.grid, se.ints, se.floats, se.counts)  # fmt: skip
+        timed(
+            "neighbour counts (grid)",
+            fly_neighbour_counts_into,
+            a.xyz,
+            im.k,
+            a.fitness,
+            se.radius,
+            se.grid,
+            se.ints,
+            se.floats,
+            se.counts,
+        )
         score = se.work[:n]
-        timed("sharing (median)", shared_fitness_into, a.fitness, se.counts, se.coefficient,
-              se.work[n:], score)  # fmt: skip
+        timed(
+            "sharing (median)",
+            shared_fitness_into,
+            a.fitness,
+            se.counts,
+            se.coefficient,
+            se.work[n:],
+            score,
+        )
         cut = _cut_and_gather
         kept = timed("selection cut and gather", cut, score, se.survivors, se.work, a, b)
         at = n - br.n_immigrants
-        timed("breeding: children and immigrants", immigrants_and_children_into, rng,
-              b.xyz[:kept], br, fu.tolerance, b.xyz[kept:at], b.xyz[at:])  # fmt: skip
+        timed(
+            "breeding: children and immigrants",
+            immigrants_and_children_into,
+            rng,
+            b.xyz[:kept],
+            br,
+            fu.tolerance,
+            b.xyz[kept:at],
+            b.xyz[at:],
+        )
         timed("Generator typing (no-op kernel)", noop, rng, b.xyz)
-        order = timed("row order, newcomers", rows_order_into, b.xyz, sc.newcomers, im.k,
-                      height, sc.row_scratch)  # fmt: skip
+        order = timed(
+            "row order, newcomers",
+            rows_order_into,
+            b.xyz,
+            sc.newcomers,
+            im.k,
+            height,
+            sc.row_scratch,
+        )
         timed("fitness, 2500 newcomers", score_into, im, measure, fu, b, order, order)
         a, b = b, a
     typing = float(np.median(times.pop("Generator typing (no-op kernel)")[40:]))

@@ -33,8 +33,9 @@ _AHEAD = 4
 # error_model="numpy": no zero test per division (a fly behind the cameras divides by a depth
 # ≤ 0 and is discarded), so the projection and the last pass are vectorised loops.
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _fitness_range(lrow, rrow, channels, xyz, index, start, stop, k, window, guard, gy_weight,
-                   masks, out):  # fmt: skip  # pragma: no cover - compiled
+def _fitness_range(
+    lrow, rrow, channels, xyz, index, start, stop, k, window, guard, gy_weight, masks, out
+):  # pragma: no cover - compiled
     """Fitness of flies index[start:stop]; ``masks`` from :func:`lane_masks` with the same
     ``gy_weight``."""
     height = lrow.shape[0]
@@ -124,25 +125,49 @@ _CHUNKS = 64
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
-def _fitness_parallel(lrow, rrow, channels, xyz, index, k, window, guard, gy_weight,
-                      out):  # fmt: skip  # pragma: no cover - compiled
+def _fitness_parallel(
+    lrow, rrow, channels, xyz, index, k, window, guard, gy_weight, out
+):  # pragma: no cover - compiled
     m = index.shape[0]
     masks = lane_masks(window, channels, gy_weight)
     for chunk in numba.prange(_CHUNKS):
         _fitness_range(
-            lrow, rrow, channels, xyz, index, chunk * m // _CHUNKS, (chunk + 1) * m // _CHUNKS,
-            k, window, guard, gy_weight, masks, out,
-        )  # fmt: skip
+            lrow,
+            rrow,
+            channels,
+            xyz,
+            index,
+            chunk * m // _CHUNKS,
+            (chunk + 1) * m // _CHUNKS,
+            k,
+            window,
+            guard,
+            gy_weight,
+            masks,
+            out,
+        )
 
 
 @numba.njit(cache=True, nogil=True)
-def _fitness_serial(lrow, rrow, channels, xyz, index, k, window, guard, gy_weight,
-                    out):  # fmt: skip  # pragma: no cover - compiled
+def _fitness_serial(
+    lrow, rrow, channels, xyz, index, k, window, guard, gy_weight, out
+):  # pragma: no cover - compiled
     masks = lane_masks(window, channels, gy_weight)
     _fitness_range(
-        lrow, rrow, channels, xyz, index, 0, index.shape[0], k, window, guard, gy_weight, masks,
+        lrow,
+        rrow,
+        channels,
+        xyz,
+        index,
+        0,
+        index.shape[0],
+        k,
+        window,
+        guard,
+        gy_weight,
+        masks,
         out,
-    )  # fmt: skip
+    )
 
 
 def level_constants(rig: StereoRig) -> np.ndarray:
