@@ -182,7 +182,7 @@ def _finish(
     frame_rate: float,
     period_s: float,
 ) -> ExperimentResult:
-    table = _table(runs, modes, options.seeds)
+    table = _table(runs, modes, options.seeds, period_s)
     figures = _figures(here, table, runs, modes)
     findings = _findings(table)
     setup = [
@@ -230,7 +230,10 @@ def _pooled(runs: list[dict], mode: str, key: str) -> list[float]:
     return [d for r in runs if r["scene"] == TURN and r["mode"] == mode for d in r[key]]
 
 
-def _table(runs: list[dict], modes: list[str], seeds: int) -> Table:
+def _table(runs: list[dict], modes: list[str], seeds: int, period_s: float) -> Table:
+    """A row per pipeline: latencies pooled over every obstacle of every seed, in frame
+    periods and in milliseconds (``period_s`` the frame period), and the corridor's scores."""
+    ms = 1000.0 * period_s
     rows = []
     for mode in modes:
         turn = [r for r in runs if r["scene"] == TURN and r["mode"] == mode]
@@ -242,8 +245,11 @@ def _table(runs: list[dict], modes: list[str], seeds: int) -> Table:
                 "mode": mode,
                 "detection_median": _median(detection),
                 "detection_mean": _mean(detection),
+                "detection_median_ms": ms * _median(detection),
                 "detected": Count(len(detection), sum(r["obstacles_visible"] for r in turn)),
                 "reaction_median": _median(reaction),
+                "reaction_mean": _mean(reaction),
+                "reaction_median_ms": ms * _median(reaction),
                 "reacted": Count(len(reaction), sum(r["entered_view"] for r in turn)),
                 "precision": spread([r["precision"] for r in corridor]),
                 "recall": spread([r["recall"] for r in corridor]),
@@ -254,8 +260,11 @@ def _table(runs: list[dict], modes: list[str], seeds: int) -> Table:
         Column("mode", "pipeline"),
         Column("detection_median", "detection latency, median (frames)", ".2f"),
         Column("detection_mean", "detection latency, mean (frames)", ".2f"),
+        Column("detection_median_ms", "detection latency, median (ms)", ".0f"),
         Column("detected", "obstacles detected"),
         Column("reaction_median", "planner reaction, median (frames)", ".2f"),
+        Column("reaction_mean", "planner reaction, mean (frames)", ".2f"),
+        Column("reaction_median_ms", "planner reaction, median (ms)", ".0f"),
         Column("reacted", "planner reacted"),
         Column("precision", f"precision ({CORRIDOR})"),
         Column("recall", f"recall ({CORRIDOR})"),
@@ -269,8 +278,9 @@ def _findings(table: Table) -> list[str]:
     for row in table.rows:
         out.append(
             f"{row['mode']}: median detection latency {row['detection_median']:.2f} frame "
-            f"periods, planner reaction {row['reaction_median']:.2f} frame periods; corridor "
-            f"precision {row['precision'].mean:.3f}, recall {row['recall'].mean:.3f}"
+            f"periods ({row['detection_median_ms']:.0f} ms), planner reaction "
+            f"{row['reaction_median']:.2f} frame periods ({row['reaction_median_ms']:.0f} ms); "
+            f"corridor precision {row['precision'].mean:.3f}, recall {row['recall'].mean:.3f}"
         )
     first = table.rows[0]
     if math.isfinite(first["detection_median"]):
