@@ -7,8 +7,9 @@ its 3-D ray at them (a side face if the height at entry is within [0, h], the to
 ray comes down through h inside the footprint), else the ground (ray going down) or the sky.
 The 2-D ray parameter is the depth along the optical axis, so depth comes for free.
 
-:class:`Renderer` runs a numba kernel, parallel over blocks of columns of both images; each
-column first finds its surfaces, then textures all its rows at once (vectorised, see
+:class:`Renderer` runs a numba kernel, parallel over blocks of columns of both images, over a
+range of rows (a rolling shutter's band, or the whole frame); each column first finds its
+surfaces, then textures the range's rows at once (vectorised, see
 :func:`flylog.sim.textures.texture_column`), then shades them;
 :func:`tests.sim.render_reference.render_reference` is the plain-numpy reference (slow, for
 tests at small sizes).
@@ -17,6 +18,7 @@ tests at small sizes).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numba
@@ -26,7 +28,7 @@ from flylog.geometry import Pose2D, StereoRig
 from flylog.scene.footprints import DISC, Footprints
 from flylog.scene.load import Scene
 from flylog.scene.ray_kernel import ray_hit
-from flylog.sim.rotated import sample_colour, sample_truth, warps
+from flylog.sim.rotated import Warp, sample_colour, sample_truth, warps
 from flylog.sim.textures import texture_column, value_noise_1d_numpy
 
 GROUND = -1
@@ -116,9 +118,15 @@ def sky_pattern(rig: StereoRig, dirs: np.ndarray, feature: float) -> tuple[np.nd
     )
 
 
+# One band of a frame: rows [first, stop) rendered from ``pose``.
+Band = tuple[Pose2D, int, int]
+
+
 class Renderer:
     """Renders a scene from the robot's true pose; the scene is compiled once. A rig that is
-    not level is drawn through level cameras (:mod:`flylog.sim.rotated`)."""
+    not level is drawn through level cameras (:mod:`flylog.sim.rotated`). A frame may be
+    rendered in bands of rows, each from its own pose (a rolling shutter): a row's pixels
+    depend on its own pose only, so a frame of one band is the frame of that pose."""
 
     def __init__(self, scene: Scene, rig: StereoRig) -> None:
         self.scene = scene
@@ -127,11 +135,18 @@ class Renderer:
         self._warps = None if rig.is_level else warps(rig)
 
     def _run(
-        self, pose: Pose2D, rig: StereoRig, sides: tuple[str, ...], want_color: bool
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Level cameras ``sides`` of ``rig``: (cams, H, W, 3) images (none without
-        ``want_color``), the first camera's depth and ids."""
+        self,
+        pose: Pose2D,
+        rig: StereoRig,
+        sides: tuple[str, ...],
+        rows: tuple[int, int],
+        out: tuple[np.ndarray, np.ndarray, np.ndarray],
+    ) -> None:
+        """Rows ``rows`` of level cameras ``sides`` of ``rig`` into ``out``: (cams, H, W, 3)
+        images (cams 0 without colour), the first camera's (H, W) depth and ids."""
         a, fp = self._arrays, self._arrays.fp
+        rgb, depth, ids = out
+        want_color = rgb.shape[0] > 0
         origins = np.zeros((len(sides), 2))
         dirs = np.zeros((len(sides), rig.width, 2))
         centre = _cyclopean_centre(self.rig, pose)
@@ -143,10 +158,6 @@ class Renderer:
             sky_cols, sky_rows = sky_pattern(rig, dirs, a.sky[3])
         else:  # depth and ids do not depend on the sky's colour (metrics render 300 views)
             sky_cols, sky_rows = np.zeros(dirs.shape[:2]), np.zeros(rig.height)
-        n_img = len(sides) if want_color else 0
-        rgb = np.empty((n_img, rig.height, rig.width, 3), dtype=np.uint8)
-        depth = np.empty((rig.height, rig.width), dtype=np.float32)
-        ids = np.empty((rig.height, rig.width), dtype=np.int16)
         # Blocks handed out one at a time: a thread slowed by other processes on its core
         # does fewer of them instead of holding up the frame.
         with numba.parallel_chunksize(1):
@@ -159,6 +170,9 @@ class Renderer:
                 rig.focal_px,
                 rig.cy,
                 rig.height,
+                # the rows drawn, [v0, v1)
+                rows[0],
+                rows[1],
                 # footprints, one entry per obstacle
                 fp.kind,
                 fp.cx,
@@ -186,29 +200,58 @@ class Renderer:
                 depth,
                 ids,
             )
-        return rgb, depth, ids
+
+    def _frame(
+        self, bands: Sequence[Band], want_color: bool
+    ) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
+        """The (left, right) images (none without ``want_color``) and the left camera's
+        depth and ids of a frame whose bands of rows are rendered each from its pose."""
+        rig = self.rig
+        depth = np.empty((rig.height, rig.width), dtype=np.float32)
+        ids = np.empty((rig.height, rig.width), dtype=np.int16)
+        if self._warps is None:
+            rgb = np.empty((2 if want_color else 0, rig.height, rig.width, 3), dtype=np.uint8)
+            sides = ("left", "right") if want_color else ("left",)
+            for pose, first, stop in bands:
+                self._run(pose, rig, sides, (first, stop), (rgb, depth, ids))
+            return list(rgb), depth, ids
+        images = []
+        for c, warp in enumerate(self._warps if want_color else self._warps[:1]):
+            level = warp.level
+            level_rgb = np.empty(
+                (1 if want_color else 0, level.height, level.width, 3), dtype=np.uint8
+            )
+            level_depth = np.empty((level.height, level.width), dtype=np.float32)
+            level_ids = np.empty((level.height, level.width), dtype=np.int16)
+            image = np.empty((rig.height, rig.width, 3), dtype=np.uint8)
+            for pose, first, stop in bands:
+                part = Warp(level, warp.u[first:stop], warp.v[first:stop], warp.scale[first:stop])
+                # the level rows the band's pixels sample: bilinear reads reach one row down
+                lo = int(np.floor(part.v.min()))
+                hi = int(np.floor(part.v.max())) + 2
+                self._run(pose, level, ("left",), (lo, hi), (level_rgb, level_depth, level_ids))
+                if want_color:
+                    image[first:stop] = sample_colour(level_rgb[0], part)
+                if c == 0:
+                    depth[first:stop], ids[first:stop] = sample_truth(level_depth, level_ids, part)
+            images.append(image)
+        return images if want_color else [], depth, ids
 
     def render(self, pose: Pose2D) -> RenderedPair:
         """Both images and the left camera's depth and ids, from the true robot pose."""
-        if self._warps is None:
-            rgb, depth, ids = self._run(pose, self.rig, ("left", "right"), want_color=True)
-            return RenderedPair(left=rgb[0], right=rgb[1], depth=depth, ids=ids)
-        images = []
-        for warp in self._warps:
-            rgb, level_depth, level_ids = self._run(pose, warp.level, ("left",), True)
-            images.append(sample_colour(rgb[0], warp))
-            if len(images) == 1:
-                depth, ids = sample_truth(level_depth, level_ids, warp)
-        return RenderedPair(left=images[0], right=images[1], depth=depth, ids=ids)
+        return self.render_bands([(pose, 0, self.rig.height)])
+
+    def render_bands(self, bands: Sequence[Band]) -> RenderedPair:
+        """Both images and the left camera's depth and ids of a frame whose rows
+        [first, stop) of each band are seen from the band's pose (the bands cover the
+        image's rows once)."""
+        (left, right), depth, ids = self._frame(bands, want_color=True)
+        return RenderedPair(left=left, right=right, depth=depth, ids=ids)
 
     def render_depth(self, pose: Pose2D) -> tuple[np.ndarray, np.ndarray]:
         """The left camera's (depth, ids) only: ground truth for the metrics."""
-        if self._warps is None:
-            _, depth, ids = self._run(pose, self.rig, ("left",), want_color=False)
-            return depth, ids
-        warp = self._warps[0]
-        _, depth, ids = self._run(pose, warp.level, ("left",), want_color=False)
-        return sample_truth(depth, ids, warp)
+        _, depth, ids = self._frame([(pose, 0, self.rig.height)], want_color=False)
+        return depth, ids
 
 
 # No nnan/ninf fast-math: depth uses inf for the sky.
@@ -222,6 +265,9 @@ def _render_kernel(
     f,
     cy,
     height,
+    # the rows drawn, [v0, v1)
+    v0,
+    v1,
     # footprints, one entry per obstacle
     kind,
     ocx,
@@ -284,6 +330,9 @@ def _render_kernel(
                 f,
                 cy,
                 height,
+                # the rows drawn, [v0, v1)
+                v0,
+                v1,
                 # footprints, one entry per obstacle
                 kind,
                 ocx,
@@ -344,6 +393,9 @@ def _render_column(
     f,
     cy,
     height,
+    # the rows drawn, [v0, v1)
+    v0,
+    v1,
     # footprints, one entry per obstacle
     kind,
     ocx,
@@ -413,8 +465,8 @@ def _render_column(
                 j -= 1
             order[j] = k
             n_hit += 1
-    first_seen = height  # sky is the top of a column: the rows above the first surface
-    for v in range(height):
+    first_seen = v1  # sky is the top of a column: the rows above the first surface
+    for v in range(v0, v1):
         slope = (v - cy) / f  # the 3-D ray descends by `slope` per metre of depth
         best, hit, top = np.inf, -2, False
         if slope > 0.0:
@@ -461,9 +513,10 @@ def _render_column(
         r_s[v], r_t[v], r_seed[v], r_feat[v], r_fp[v] = s, t, seed, feat, best / f / incidence
     if not want_color:
         return
-    # The texture of the whole column at once, in vectorised loops: most of the time.
-    texture_column(r_s, r_t, r_seed, r_feat, r_fp, first_seen, height, r_tex, r_q)
-    for v in range(height):
+    # The texture of the column's rows at once, in vectorised loops: most of the time. A
+    # row's texture depends on that row's values only, not on which rows are rendered.
+    texture_column(r_s, r_t, r_seed, r_feat, r_fp, first_seen, v1, r_tex, r_q)
+    for v in range(v0, v1):
         hit, top, best = r_hit[v], r_top[v], r_best[v]
         if hit == -2:
             # The sky's pattern depends on the direction only: zero disparity.

@@ -19,13 +19,18 @@ from flylog.sim.render import (
 from flylog.sim.textures import texture_value_numpy
 
 
-def render_reference(scene: Scene, rig: StereoRig, pose: Pose2D) -> RenderedPair:
+def render_reference(
+    scene: Scene, rig: StereoRig, pose: Pose2D, rows: tuple[int, int] | None = None
+) -> RenderedPair:
     """Plain-numpy reference of :meth:`Renderer.render`: every candidate surface of every
-    pixel is computed and the nearest taken (no sorting, no early exit)."""
+    pixel is computed and the nearest taken (no sorting, no early exit). ``rows``: only
+    the rows [first, stop), as an image of stop - first rows."""
+    first, stop = rows if rows is not None else (0, rig.height)
+    height = stop - first
     a = _scene_arrays(scene)
     fp = a.fp
     n = len(fp)
-    slope = (np.arange(rig.height) - rig.cy) / rig.focal_px
+    slope = (np.arange(first, stop) - rig.cy) / rig.focal_px
     hc = rig.mount_height
     down = slope > 0.0
     with np.errstate(divide="ignore"):
@@ -35,9 +40,10 @@ def render_reference(scene: Scene, rig: StereoRig, pose: Pose2D) -> RenderedPair
     for side in ("left", "right"):
         ox, oy, dirs = _camera_rays(rig, pose, side)
         sky_cols, sky_rows = sky_pattern(rig, dirs[None], a.sky[3])
-        img = np.empty((rig.height, rig.width, 3), dtype=np.uint8)
-        depth = np.empty((rig.height, rig.width))
-        ids = np.empty((rig.height, rig.width), dtype=np.int64)
+        sky_rows = sky_rows[first:stop]
+        img = np.empty((height, rig.width, 3), dtype=np.uint8)
+        depth = np.empty((height, rig.width))
+        ids = np.empty((height, rig.width), dtype=np.int64)
         for u in range(rig.width):
             dx, dy = dirs[u]
             t_in, t_out, nxs, nys = ray_hits_numpy(fp, ox, oy, dx, dy)
@@ -55,7 +61,7 @@ def render_reference(scene: Scene, rig: StereoRig, pose: Pose2D) -> RenderedPair
             t_top = np.where(top_ok, t_top, np.inf)
             cand = np.concatenate([t_ground[:, None], t_side, t_top], axis=1)  # (H, 1 + 2n)
             pick = np.argmin(cand, axis=1)
-            best = cand[np.arange(rig.height), pick]
+            best = cand[np.arange(height), pick]
             hit = np.where(pick == 0, -1, (pick - 1) % max(n, 1))
             hit = np.where(np.isinf(best), -2, hit)
             top = pick > n
@@ -83,6 +89,17 @@ def render_reference(scene: Scene, rig: StereoRig, pose: Pose2D) -> RenderedPair
             depth0, ids0 = depth, ids
     assert depth0 is not None and ids0 is not None
     return RenderedPair(images[0], images[1], depth0.astype(np.float32), ids0.astype(np.int16))
+
+
+def render_bands_reference(
+    scene: Scene, rig: StereoRig, bands: list[tuple[Pose2D, int, int]]
+) -> RenderedPair:
+    """Plain-numpy reference of :meth:`Renderer.render_bands`: each band's rows rendered
+    from its pose, stacked."""
+    parts = [render_reference(scene, rig, pose, (first, stop)) for pose, first, stop in bands]
+    return RenderedPair(
+        *(np.concatenate([getattr(p, k) for p in parts]) for k in ("left", "right", "depth", "ids"))
+    )
 
 
 def _shade_column_numpy(

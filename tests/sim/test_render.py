@@ -1,3 +1,4 @@
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -6,7 +7,7 @@ import pytest
 from flylog.geometry import Pose2D, StereoRig
 from flylog.scene import load_scene, parse_scene
 from flylog.sim.render import GROUND, SKY, Renderer
-from tests.sim.render_reference import render_reference
+from tests.sim.render_reference import render_bands_reference, render_reference
 
 FIXTURES = Path(__file__).resolve().parents[2] / "fixtures" / "scenes"
 SMALL = StereoRig(width=64, height=48, focal_px=50.0, baseline=0.12, mount_height=0.5)
@@ -159,6 +160,55 @@ height = 3.0
     # Robot turned left by 90°: the post (now to the right) is out of view.
     turned = render_with(impl, scene, SMALL, Pose2D(0.0, 0.0, np.pi / 2))
     assert not np.any(turned.ids == 1)
+
+
+def _rolling_bands(pose, rows_per_band, height):
+    """Bands of ``rows_per_band`` rows, each from ``pose`` turned by 0.01 rad more."""
+    return [
+        (
+            Pose2D(pose.x + 0.02 * i, pose.y, pose.theta + 0.01 * i),
+            first,
+            min(first + rows_per_band, height),
+        )
+        for i, first in enumerate(range(0, height, rows_per_band))
+    ]
+
+
+@pytest.mark.parametrize("rows_per_band", [1, 7, 48])
+def test_numba_bands_match_the_numpy_reference_row_for_row(rows_per_band):
+    scene = load_scene(FIXTURES / "clutter.toml")
+    bands = _rolling_bands(Pose2D(1.0, -0.5, 0.3), rows_per_band, SMALL.height)
+    got = Renderer(scene, SMALL).render_bands(bands)
+    ref = render_bands_reference(scene, SMALL, bands)
+    assert np.array_equal(got.ids, ref.ids)
+    finite = np.isfinite(ref.depth)
+    assert np.array_equal(np.isfinite(got.depth), finite)
+    np.testing.assert_allclose(got.depth[finite], ref.depth[finite], rtol=1e-6)
+    for a, b in ((got.left, ref.left), (got.right, ref.right)):
+        assert np.abs(a.astype(int) - b.astype(int)).max() <= 1
+
+
+@pytest.mark.parametrize(
+    "rig", [SMALL, replace(SMALL, tilt=8.0, roll=3.0)], ids=["level", "tilted"]
+)
+@pytest.mark.parametrize("name", ["clutter", "corridor"])
+def test_a_band_is_bit_for_bit_the_rows_of_its_poses_whole_frame(name, rig):
+    # A row's pixels depend on its own pose only: a frame rendered in bands from one pose is
+    # the frame of that pose, and each band of a rolling frame is its pose's frame's rows.
+    scene = load_scene(FIXTURES / f"{name}.toml")
+    renderer = Renderer(scene, rig)
+    pose = Pose2D(2.0, 0.3, -0.2)
+    whole = renderer.render(pose)
+    bands = [(pose, first, min(first + 5, rig.height)) for first in range(0, rig.height, 5)]
+    for got in (renderer.render_bands(bands), renderer.render_bands(bands[::-1])):
+        for key in ("left", "right", "depth", "ids"):
+            assert np.array_equal(getattr(got, key), getattr(whole, key))
+    rolling = _rolling_bands(pose, 5, rig.height)
+    got = renderer.render_bands(rolling)
+    for band_pose, first, stop in rolling:
+        own = renderer.render(band_pose)
+        for key in ("left", "right", "depth", "ids"):
+            assert np.array_equal(getattr(got, key)[first:stop], getattr(own, key)[first:stop])
 
 
 def test_render_depth_matches_render():
