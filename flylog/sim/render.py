@@ -136,28 +136,34 @@ class Renderer:
 
     def _run(
         self,
-        pose: Pose2D,
+        bands: Sequence[Band],
         rig: StereoRig,
         sides: tuple[str, ...],
-        rows: tuple[int, int],
         out: tuple[np.ndarray, np.ndarray, np.ndarray],
     ) -> None:
-        """Rows ``rows`` of level cameras ``sides`` of ``rig`` into ``out``: (cams, H, W, 3)
-        images (cams 0 without colour), the first camera's (H, W) depth and ids."""
+        """The bands' rows of level cameras ``sides`` of ``rig``, each from its band's pose,
+        into ``out``: (cams, H, W, 3) images (cams 0 without colour), the first camera's (H,
+        W) depth and ids. One kernel call renders every band: a call's fixed cost (starting
+        the threads) is paid once a frame."""
         a, fp = self._arrays, self._arrays.fp
         rgb, depth, ids = out
         want_color = rgb.shape[0] > 0
-        origins = np.zeros((len(sides), 2))
-        dirs = np.zeros((len(sides), rig.width, 2))
-        centre = _cyclopean_centre(self.rig, pose)
-        for i, side in enumerate(sides):
-            ox, oy, d = _camera_rays(rig, pose, side)
-            origins[i] = ox, oy
-            dirs[i] = d
+        n = len(bands)
+        origins = np.zeros((n, len(sides), 2))
+        dirs = np.zeros((n, len(sides), rig.width, 2))
+        centre = np.zeros((n, 2))
+        rows = np.array([(first, stop) for _, first, stop in bands], dtype=np.int64)
+        for b, (pose, _, _) in enumerate(bands):
+            centre[b] = _cyclopean_centre(self.rig, pose)
+            for i, side in enumerate(sides):
+                ox, oy, d = _camera_rays(rig, pose, side)
+                origins[b, i] = ox, oy
+                dirs[b, i] = d
         if want_color:
-            sky_cols, sky_rows = sky_pattern(rig, dirs, a.sky[3])
+            sky_cols, sky_rows = sky_pattern(rig, dirs.reshape(-1, rig.width, 2), a.sky[3])
+            sky_cols = sky_cols.reshape(dirs.shape[:3])
         else:  # depth and ids do not depend on the sky's colour (metrics render 300 views)
-            sky_cols, sky_rows = np.zeros(dirs.shape[:2]), np.zeros(rig.height)
+            sky_cols, sky_rows = np.zeros(dirs.shape[:3]), np.zeros(rig.height)
         # Blocks handed out one at a time: a thread slowed by other processes on its core
         # does fewer of them instead of holding up the frame.
         with numba.parallel_chunksize(1):
@@ -170,9 +176,8 @@ class Renderer:
                 rig.focal_px,
                 rig.cy,
                 rig.height,
-                # the rows drawn, [v0, v1)
-                rows[0],
-                rows[1],
+                # the bands' rows, [first, stop) each
+                rows,
                 # footprints, one entry per obstacle
                 fp.kind,
                 fp.cx,
@@ -212,8 +217,7 @@ class Renderer:
         if self._warps is None:
             rgb = np.empty((2 if want_color else 0, rig.height, rig.width, 3), dtype=np.uint8)
             sides = ("left", "right") if want_color else ("left",)
-            for pose, first, stop in bands:
-                self._run(pose, rig, sides, (first, stop), (rgb, depth, ids))
+            self._run(bands, rig, sides, (rgb, depth, ids))
             return list(rgb), depth, ids
         images = []
         for c, warp in enumerate(self._warps if want_color else self._warps[:1]):
@@ -226,10 +230,11 @@ class Renderer:
             image = np.empty((rig.height, rig.width, 3), dtype=np.uint8)
             for pose, first, stop in bands:
                 part = Warp(level, warp.u[first:stop], warp.v[first:stop], warp.scale[first:stop])
-                # the level rows the band's pixels sample: bilinear reads reach one row down
+                # the level rows the band's pixels sample (bilinear reads reach one row down);
+                # the bands' level rows overlap, so each band is a kernel call of its own
                 lo = int(np.floor(part.v.min()))
                 hi = int(np.floor(part.v.max())) + 2
-                self._run(pose, level, ("left",), (lo, hi), (level_rgb, level_depth, level_ids))
+                self._run([(pose, lo, hi)], level, ("left",), (level_rgb, level_depth, level_ids))
                 if want_color:
                     image[first:stop] = sample_colour(level_rgb[0], part)
                 if c == 0:
@@ -265,9 +270,8 @@ def _render_kernel(
     f,
     cy,
     height,
-    # the rows drawn, [v0, v1)
-    v0,
-    v1,
+    # the bands' rows, [first, stop) each
+    rows,
     # footprints, one entry per obstacle
     kind,
     ocx,
@@ -295,7 +299,8 @@ def _render_kernel(
     depth,
     ids,
 ):
-    n_cams, width = dirs.shape[0], dirs.shape[1]
+    # Band b: rows rows[b, 0]..rows[b, 1] - 1 seen from origins[b], centre[b], dirs[b].
+    n_bands, n_cams, width = dirs.shape[0], dirs.shape[1], dirs.shape[2]
     n = kind.shape[0]
     n_blocks = (width + _BLOCK - 1) // _BLOCK
     for job in numba.prange(n_cams * n_blocks):
@@ -318,66 +323,67 @@ def _render_kernel(
         r_tex = np.empty(height)
         r_q = np.empty((3, height))
         for u in range(block * _BLOCK, min(block * _BLOCK + _BLOCK, width)):
-            _render_column(
-                # the column drawn: its camera and image column
-                cam,
-                u,
-                # the cameras and their rays
-                origins,
-                centre,
-                dirs,
-                hc,
-                f,
-                cy,
-                height,
-                # the rows drawn, [v0, v1)
-                v0,
-                v1,
-                # footprints, one entry per obstacle
-                kind,
-                ocx,
-                ocy,
-                ocos,
-                osin,
-                ohx,
-                ohy,
-                oh,
-                ocolor,
-                ofeat,
-                ocontrast,
-                # ground, light and sky
-                gcolor,
-                gfeat,
-                gcontrast,
-                light,
-                ambient,
-                sky,
-                sky_cols,
-                sky_rows,
-                # whether to draw the images, and the outputs
-                want_color,
-                rgb,
-                depth,
-                ids,
-                # scratch per obstacle
-                t_in,
-                t_out,
-                nxs,
-                nys,
-                side_s,
-                order,
-                # scratch per row
-                r_best,
-                r_hit,
-                r_top,
-                r_s,
-                r_t,
-                r_seed,
-                r_feat,
-                r_fp,
-                r_tex,
-                r_q,
-            )
+            for b in range(n_bands):
+                _render_column(
+                    # the column drawn: its camera and image column
+                    cam,
+                    u,
+                    # the cameras and their rays
+                    origins[b],
+                    centre[b],
+                    dirs[b],
+                    hc,
+                    f,
+                    cy,
+                    height,
+                    # the rows drawn, [v0, v1)
+                    rows[b, 0],
+                    rows[b, 1],
+                    # footprints, one entry per obstacle
+                    kind,
+                    ocx,
+                    ocy,
+                    ocos,
+                    osin,
+                    ohx,
+                    ohy,
+                    oh,
+                    ocolor,
+                    ofeat,
+                    ocontrast,
+                    # ground, light and sky
+                    gcolor,
+                    gfeat,
+                    gcontrast,
+                    light,
+                    ambient,
+                    sky,
+                    sky_cols[b],
+                    sky_rows,
+                    # whether to draw the images, and the outputs
+                    want_color,
+                    rgb,
+                    depth,
+                    ids,
+                    # scratch per obstacle
+                    t_in,
+                    t_out,
+                    nxs,
+                    nys,
+                    side_s,
+                    order,
+                    # scratch per row
+                    r_best,
+                    r_hit,
+                    r_top,
+                    r_s,
+                    r_t,
+                    r_seed,
+                    r_feat,
+                    r_fp,
+                    r_tex,
+                    r_q,
+                )
 
 
 @numba.njit(cache=True, fastmath={"nsz", "arcp", "contract", "afn"})
