@@ -58,6 +58,14 @@ REPLAY_METADATA = "flylog.replay"  # effective configuration and counts of a run
 # in log-time order. Logs without it (older or unfinished ones) are read from the topics.
 TRAJECTORIES_METADATA = "flylog.trajectories"
 TRAJECTORIES_VERSION = "1"
+# The cameras' rolling shutter, written by the simulator when its cameras have one: keys
+# "version" ("1") and "row_period_ns", the decimal text of a float, the time from one image
+# row's exposure to the next's. An image's stamp is the exposure middle of its row 0; row v's
+# is the stamp + v · row_period_ns (Kalibr's rolling-shutter "line delay"). A log without the
+# record (a global shutter, an imported dataset, a ROS 2 bag) reads as 0: every row at the
+# stamp.
+SHUTTER_METADATA = "flylog.shutter"
+SHUTTER_VERSION = "1"
 # What ``flylog import`` read (keys: "format", "source", "scene", "frames") and the robot
 # geometry the dataset gives: "mount" is "none" when the dataset does not say where the
 # cameras sit on a robot. Such a log has no /tf, no /odom and no ground plane: replay places

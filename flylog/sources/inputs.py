@@ -25,6 +25,7 @@ from flylog.geometry.calibrated import Mount, calibrated_rig
 from flylog.geometry.stereo import OPTICAL_TO_BASE, quaternion_matrix
 from flylog.io import contract
 from flylog.io.reader import LogReader, require_topics
+from flylog.io.shutter import row_period_ns
 
 # Topics replay reads; /truth/ is deliberately absent.
 SENSOR_TOPICS = (contract.LEFT_IMAGE, contract.RIGHT_IMAGE, contract.SONAR, contract.ODOM)
@@ -57,6 +58,9 @@ class ReplayInputs:
     has_ground: bool = True  # the rig's mount is known: z = 0 is the ground
     has_planner: bool = True  # a goal was given or recorded
     frames: int = 0  # stereo pairs in the log
+    # rolling shutter: row v of an image is exposed at its stamp + v · row_period_ns (0: a
+    # global shutter, every row at the stamp; logs without the record, bags, datasets)
+    row_period_ns: float = 0.0
 
 
 def replay_inputs(reader: LogReader, *, goal: tuple[float, float] | None) -> ReplayInputs:
@@ -123,6 +127,7 @@ def replay_inputs(reader: LogReader, *, goal: tuple[float, float] | None) -> Rep
         has_ground=not no_mount,
         has_planner=planner,
         frames=frames,
+        row_period_ns=row_period_ns(reader.metadata(), where=str(reader.path)),
     )
 
 
