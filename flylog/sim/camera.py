@@ -3,8 +3,11 @@
 The renderer's 8-bit values are read as the light reaching each pixel (rendered value 1: a
 white surface). Per camera ``c`` and frame ``k``, in the order light meets them:
 
+0. rolling shutter: row v is exposed around the frame's stamp + v · ``row_period_us``, and
+   rendered from the pose at that time, in bands of rows (:func:`shutter_bands`,
+   :func:`band_rows`); 0, the default, is a global shutter;
 1. motion blur: the mean of ``motion_samples`` renders at poses spread evenly over the
-   exposure, centred on the frame's time (:func:`exposure_poses`);
+   exposure, centred on the frame's time (each row's, :func:`frame_bands`);
 2. optical blur: a Gaussian point spread of ``psf_sigma_px`` (:func:`gaussian_blur`);
 3. vignetting: the cos⁴ law's profile ``1 / (1 + a ρ²)²`` (ρ: distance from the principal
    point over the half-diagonal) with ``a`` set by the corner's relative illumination;
@@ -28,12 +31,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from flylog.geometry import Pose2D, StereoRig
 from flylog.geometry.poses import compose
 from flylog.sim.camera_defects import CameraDefects
+
+if TYPE_CHECKING:
+    from flylog.sim.render import Band
 
 # Spawn keys of the camera model's streams, after the simulation's children 0 (trajectory)
 # and 1 (sonar).
@@ -52,24 +59,104 @@ def frame_rng(seed: int, frame: int, camera: int) -> np.random.Generator:
     )
 
 
+def arc_pose(pose: Pose2D, v: float, w: float, dt: float) -> Pose2D:
+    """The pose ``dt`` seconds after ``pose`` along the arc of speed ``v`` (m/s) and turn
+    rate ``w`` (rad/s)."""
+    turn = w * dt
+    if abs(turn) < 1e-12:
+        step = Pose2D(v * dt, 0.0, 0.0)
+    else:
+        step = Pose2D(v * math.sin(turn) / w, v * (1.0 - math.cos(turn)) / w, turn)
+    return compose(pose, step)
+
+
+def exposure_offsets(defects: CameraDefects) -> list[float]:
+    """The instants (s, from the exposure's middle) the motion blur renders:
+    ``motion_samples`` middles of equal slices of the exposure."""
+    n = defects.motion_samples
+    exposure = defects.exposure_ms / 1000.0
+    return [exposure * ((i + 0.5) / n - 0.5) for i in range(n)]
+
+
 def exposure_poses(pose: Pose2D, v: float, w: float, defects: CameraDefects) -> list[Pose2D]:
     """The poses the motion blur renders: ``motion_samples`` instants at the middles of
     equal slices of the exposure, centred on ``pose`` (the frame's time), moved along the
     arc of the commanded speed ``v`` (m/s) and turn rate ``w`` (rad/s)."""
-    n = defects.motion_samples
-    if n == 1:
+    if defects.motion_samples == 1:
         return [pose]
-    exposure = defects.exposure_ms / 1000.0
-    poses = []
-    for i in range(n):
-        s = exposure * ((i + 0.5) / n - 0.5)
-        turn = w * s
-        if abs(turn) < 1e-12:
-            step = Pose2D(v * s, 0.0, 0.0)
-        else:
-            step = Pose2D(v * math.sin(turn) / w, v * (1.0 - math.cos(turn)) / w, turn)
-        poses.append(compose(pose, step))
-    return poses
+    return [arc_pose(pose, v, w, s) for s in exposure_offsets(defects)]
+
+
+def shutter_bands(height: int, row_period_s: float, band_rows: int) -> list[tuple[float, int, int]]:
+    """A rolling shutter's bands of rows: (time of the band from the frame's stamp (s),
+    first row, stop row). Row v's exposure middle is the stamp + v · ``row_period_s``; a
+    band of ``band_rows`` rows is seen at its middle row's time (a band of one row, exactly
+    at its own). A global shutter (``row_period_s`` 0) is one band at the stamp."""
+    if row_period_s == 0.0:
+        return [(0.0, 0, height)]
+    bands = []
+    for first in range(0, height, band_rows):
+        stop = min(first + band_rows, height)
+        bands.append((0.5 * (first + stop - 1) * row_period_s, first, stop))
+    return bands
+
+
+# A band's rows are all seen from the pose at its middle row's time; the bands are as tall as
+# keeps every pixel within this many pixels of where its own row's time would put it.
+BAND_MOTION_PX = 0.1
+# The nearest surface the bound protects (m): nearer ones move faster in the image.
+BAND_NEAR_M = 0.5
+
+
+def band_rows(rig: StereoRig, v: float, w: float, row_period_s: float) -> int:
+    """The most rows a rolling shutter's band may hold while the robot moves at speed ``v``
+    (m/s) and turn rate ``w`` (rad/s): a row is at most (rows - 1) / 2 row periods from
+    its band's time, and no pixel moves by more than :data:`BAND_MOTION_PX` in that time.
+
+    The image speed is bounded at the image's corners (normalised (x, y), the largest
+    both): turning moves a pixel by f·|w|·√((1 + x²)² + (xy)²) per second whatever the
+    depth; the camera's own motion, forward at ``v`` and sideways at |w| times its distance
+    from the turning axis, moves a surface at depth Z by at most f·(ρ·|v| + |w|·d·(1 + ρ))
+    / Z, ρ = √(x² + y²), taken at Z = :data:`BAND_NEAR_M`."""
+    if row_period_s == 0.0:
+        return rig.height
+    f = rig.focal_px
+    # the farthest column from either camera's principal point
+    x = max(rig.cx, rig.width - 1 - rig.cx, rig.cx_right, rig.width - 1 - rig.cx_right) / f
+    y = max(rig.cy, rig.height - 1 - rig.cy) / f
+    rho = math.hypot(x, y)
+    reach = math.hypot(rig.mount_x, abs(rig.mount_y) + rig.baseline / 2.0)
+    turning = f * abs(w) * math.hypot(1.0 + x * x, x * y)
+    moving = f * (rho * abs(v) + abs(w) * reach * (1.0 + rho)) / BAND_NEAR_M
+    per_row = (turning + moving) * row_period_s
+    if per_row == 0.0:
+        return rig.height
+    return max(1, min(rig.height, 1 + math.floor(2.0 * BAND_MOTION_PX / per_row)))
+
+
+def frame_bands(
+    pose: Pose2D,
+    v: float,
+    w: float,
+    defects: CameraDefects,
+    bands: list[tuple[float, int, int]],
+) -> list[list[Band]]:
+    """The renders of one frame, each a list of bands (pose, first row, stop row): one per
+    motion-blur sample, whose band of rows is seen from the pose at that row's time plus
+    the sample's offset in the exposure, along the arc of the commanded speed ``v`` and
+    turn rate ``w`` (the robot at ``pose`` at the frame's stamp). A global shutter gives
+    the poses of :func:`exposure_poses`, one band each."""
+    if defects.motion_samples == 1:
+        return [
+            [
+                (pose if t == 0.0 else arc_pose(pose, v, w, t), first, stop)
+                for t, first, stop in bands
+            ]
+        ]
+    return [
+        [(arc_pose(pose, v, w, t + s), first, stop) for t, first, stop in bands]
+        for s in exposure_offsets(defects)
+    ]
 
 
 def gaussian_kernel(sigma: float) -> np.ndarray:

@@ -31,10 +31,11 @@ from flylog.geometry.poses import yaw_quaternion
 from flylog.io import contract, encode
 from flylog.io.collisions import Role, check_outputs
 from flylog.io.decode import yaw_of
+from flylog.io.shutter import shutter_metadata
 from flylog.io.writer import LogConfig, LogWriter
 from flylog.scene.load import Scene
 from flylog.sensors import OdomReading, SonarReading, StereoPair
-from flylog.sim.camera_defects import CameraDefects, check_exposure
+from flylog.sim.camera_defects import CameraDefects, check_exposure, check_readout
 from flylog.sim.drive import Driver, PlanDriver
 from flylog.sim.kinematics import RobotPoses, advance_poses
 from flylog.sim.scene_view import scene_shapes
@@ -113,6 +114,7 @@ def effective_scene(scene: Scene, options: SimulationOptions) -> Scene:
     if options.camera_defects is not None:
         spec = dataclasses.replace(spec, camera_defects=options.camera_defects)
     check_exposure(spec.camera_defects, rig.frame_rate, source=scene.source)
+    check_readout(spec.camera_defects, rig.height, rig.frame_rate, source=scene.source)
     return dataclasses.replace(scene, spec=spec)
 
 
@@ -154,7 +156,7 @@ def simulate(
     or stuck for its timeout); the summary then carries its status and why the run ended.
     ``on_frame(done, total)`` reports progress in stereo frames.
     """
-    from flylog.sim.camera import CameraModel, exposure_poses
+    from flylog.sim.camera import CameraModel, band_rows, frame_bands, shutter_bands
     from flylog.sim.render import Renderer
     from flylog.sim.sonar import sonar_ranges
 
@@ -177,6 +179,8 @@ def simulate(
         if defects.ideal
         else CameraModel(defects, rig, seed=options.seed, period_s=1.0 / rig.frame_rate)
     )
+    # a realistic camera's rolling shutter: row v exposed at the frame's stamp + v periods
+    row_period_s = 0.0 if camera is None else defects.row_period_us * 1e-6
     mounts = sonar_cfg.mounts()
     statics = encode.static_transforms(rig, sonar_cfg)
     shapes = scene_shapes(scene)
@@ -199,6 +203,10 @@ def simulate(
     with LogWriter.from_config(output, options.log) as log:
         log.attach("scene.toml", scene.text.encode(), "application/toml")
         log.add_metadata(contract.SIMULATION_METADATA, _metadata(scene, options, duration))
+        if row_period_s > 0.0:
+            log.add_metadata(
+                contract.SHUTTER_METADATA, shutter_metadata(defects.row_period_us * 1000.0)
+            )
 
         def write(topic: str, t_ns: int, message: object) -> None:
             nonlocal messages
@@ -260,8 +268,12 @@ def simulate(
                     pair = renderer.render(poses.true)
                     left, right = pair.left, pair.right
                 else:
+                    bands = shutter_bands(
+                        rig.height, row_period_s, band_rows(rig, *command, row_period_s)
+                    )
                     renders = [
-                        renderer.render(p) for p in exposure_poses(poses.true, *command, defects)
+                        renderer.render_bands(b)
+                        for b in frame_bands(poses.true, *command, defects, bands)
                     ]
                     left, right = camera.pair(frames, [(r.left, r.right) for r in renders])
                 for side, image in (("left", left), ("right", right)):
