@@ -2,7 +2,6 @@
 
 import dataclasses
 import math
-import re
 from pathlib import Path
 
 import numpy as np
@@ -10,15 +9,13 @@ import pytest
 from click.testing import CliRunner
 
 from flylog.cli.main import cli
-from flylog.errors import LogError
 from flylog.geometry import Pose2D, StereoRig
 from flylog.io import contract
 from flylog.io.reader import open_log
-from flylog.io.shutter import row_period_ns
-from flylog.io.writer import LogWriter
 from flylog.scene import parse_scene
 from flylog.sim.camera import (
     BAND_MOTION_PX,
+    arc_pose,
     band_rows,
     exposure_poses,
     frame_bands,
@@ -140,6 +137,23 @@ def test_a_global_shutter_renders_the_motion_blurs_poses_whole():
     assert frame_bands(pose, 0.5, 0.7, single, bands) == [[(pose, 0, RIG.height)]]
 
 
+def test_motion_blur_samples_the_exposure_around_each_bands_time():
+    defects = CameraDefects(ideal=False, motion_samples=4, exposure_ms=8.0)
+    pose = Pose2D(1.0, 2.0, 0.3)
+    bands = shutter_bands(RIG.height, 18.9e-6, 20)
+    frames = frame_bands(pose, 0.5, 0.7, defects, bands)
+    assert len(frames) == 4 and all(len(f) == len(bands) for f in frames)
+    for (t, first, stop), *samples in zip(bands, *frames, strict=True):
+        # the poses of the motion blur centred on the band's own pose
+        centre = arc_pose(pose, 0.5, 0.7, t)
+        want = exposure_poses(centre, 0.5, 0.7, defects)
+        for got, expected in zip(samples, want, strict=True):
+            assert got[1:] == (first, stop)
+            assert got[0].theta == pytest.approx(expected.theta, abs=1e-12)
+            assert got[0].x == pytest.approx(expected.x, abs=1e-12)
+            assert got[0].y == pytest.approx(expected.y, abs=1e-12)
+
+
 def test_bands_cover_the_rows_once_each_at_its_middle_rows_time():
     bands = shutter_bands(10, 2e-5, 4)
     assert [(first, stop) for _, first, stop in bands] == [(0, 4), (4, 8), (8, 10)]
@@ -186,20 +200,6 @@ def test_rolling_shutter_same_seed_same_images_and_the_reader_gets_its_row_perio
     }
     assert replay_inputs(reader, goal=None).row_period_ns == 150000.0
     assert replay_inputs(open_log(c), goal=None).row_period_ns == 0.0
-
-
-def test_a_log_without_the_record_reads_as_a_global_shutter():
-    reader = open_log(FIXTURES / "logs" / "near-obstacle.mcap")
-    assert replay_inputs(reader, goal=None).row_period_ns == 0.0
-
-
-@pytest.mark.parametrize("value", ["-1.0", "nan", "fast", "inf"])
-def test_a_malformed_row_period_names_the_record(tmp_path, value):
-    path = tmp_path / "bad.mcap"
-    with LogWriter(path) as log:
-        log.add_metadata(contract.SHUTTER_METADATA, {"version": "1", "row_period_ns": value})
-    with pytest.raises(LogError, match=re.escape("flylog.shutter.row_period_ns")):
-        row_period_ns(open_log(path).metadata(), where=str(path))
 
 
 def test_a_readout_longer_than_the_frame_period_exits_2_naming_the_field_and_fix(tmp_path):
