@@ -26,7 +26,7 @@ class SnapshotInputs:
 
     t_ns: int
     published: Published
-    robot_pose: Pose2D  # the newest odometry
+    robot_pose: Pose2D  # where the robot is at t_ns (the odometry carried on to it)
 
 
 class FlySnapshots:

@@ -174,7 +174,10 @@ class FlyPipeline:
             self._queue.submit(self._jobs.tick, inputs)
         elif name == SNAPSHOT_TICK:
             self.snapshots += 1
-            snapshot = SnapshotInputs(t_ns, self._seen(), self._poses.odom.pose)
+            # the flies and odom → base_link where the robot is at the snapshot's stamp: the
+            # newest odometry is up to a reading period older (at 0.5 rad/s on `turn` with
+            # realistic cameras, fly precision 0.733 at the newest reading, 0.905 at the stamp)
+            snapshot = SnapshotInputs(t_ns, self._seen(), self._poses.at(t_ns))
             self._queue.submit(self._snapshot, snapshot)
         else:
             msg = f"unknown tick {name!r}"

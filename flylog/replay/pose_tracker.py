@@ -97,6 +97,12 @@ class PoseTracker:
         """The newest odometry reading, heading-corrected."""
         return self._odom
 
+    def at(self, stamp_ns: int) -> Pose2D:
+        """The robot's pose at ``stamp_ns``, heading-corrected (:func:`pose_at`: past the
+        newest reading, its motion carried on): where a message stamped then is in base_link.
+        """
+        return self._corrected(pose_at(self._history, stamp_ns))
+
     def add_odometry(self, reading: OdomReading) -> None:
         self._history.append(reading)
         self._odom = OdomReading(reading.stamp_ns, self._corrected(reading.pose))

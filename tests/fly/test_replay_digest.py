@@ -1,10 +1,13 @@
-"""Replays of a fixture log give the outputs recorded before the engine's refactoring into
-measure definitions and back-ends (docs/architecture.md), bit for bit: the digests below were
-recorded with that code (``python tests/fly/replay_digest.py LOG SEED [key=value ...]``).
-Regenerating the fixture logs changes them; record them again then. The planner runs as it
-did then, with unknown cells free (``planner.frontier_field`` off), and on the images as they
-come (``engine.photometric = "none"``, the default then). The last case is the default
-configuration's, recorded with the photometric matching (``flylog.fly.photometric``)."""
+"""Replays of a fixture log give the recorded outputs, bit for bit
+(``python tests/fly/replay_digest.py LOG SEED [key=value ...]`` records them). The first two
+cases check the engine's refactoring into measure definitions and back-ends
+(docs/architecture.md): their outputs are those of the code before it, but for one
+placement: a snapshot's flies and odom → base_link are at the robot's pose at the snapshot's
+stamp (the newest odometry carried on to it), where that code took the newest odometry
+reading itself. Regenerating the fixture logs changes them; record them again then. The
+planner runs as it did then, with unknown cells free (``planner.frontier_field`` off), and on
+the images as they come (``engine.photometric = "none"``, the default then). The last case
+is the default configuration's, with the photometric matching (``flylog.fly.photometric``)."""
 
 from pathlib import Path
 
@@ -20,7 +23,7 @@ CASES = [
         "turn.mcap",
         0,
         {"planner.frontier_field": False, "engine.photometric": "none"},
-        "398113da2a5c760f7cd86e7a8d18dade0973756be93a4b4dddde46990167e84b",
+        "cb8d3c00c489a38037e086bb931465ece4259e5bf19a303bc4367388587dcfa6",
     ),
     (
         "turn.mcap",
@@ -31,14 +34,14 @@ CASES = [
             "planner.frontier_field": False,
             "engine.photometric": "none",
         },
-        "60998ecdf6c659dc3ea27cdf046f5cf4c217157a316f80e7d9403d07bbbb330c",
+        "c3c0882a6f5f465ffe37ea7e32e4a3e1fcc461c604477b1d962f5bc7d241616a",
     ),
     # the default configuration
     (
         "turn.mcap",
         0,
         {"planner.frontier_field": False},
-        "d1f4886736b67a0ee35052400431cbb4073ae37bd9c6ec12d36b6b2914c1d7a5",
+        "4006871dc0b9a3d7c48877ca2e3766f4e345646cced1eb99a412a7398e7389d0",
     ),
 ]
 
