@@ -4,13 +4,12 @@ import json
 from pathlib import Path
 
 import pytest
-from click.testing import CliRunner
 
-from flylog.cli.main import cli
 from flylog.io import contract
 from flylog.io.reader import open_log
 from flylog.sim.camera_defects import CameraDefects
 from tests.benchmarks.bench_camera_defects import without_defects
+from tests.sim.cli_logs import image_messages, simulate_cli
 
 FIXTURES = Path(__file__).resolve().parents[2] / "fixtures"
 CORRIDOR = FIXTURES / "scenes" / "corridor.toml"
@@ -18,18 +17,6 @@ CORRIDOR = FIXTURES / "scenes" / "corridor.toml"
 # before the camera model existed (the fixture test holds it current).
 FIXTURE_ARGS = ["--duration", "2", "--resolution", "160x120", "--seed", "0"]
 SMALL = ["--duration", "0.4", "--resolution", "96x72"]
-
-
-def _images(path):
-    return [
-        (r.channel.topic, r.message.log_time, bytes(r.message.data))
-        for r in open_log(path).raw_messages()
-        if r.channel.topic in (contract.LEFT_IMAGE, contract.RIGHT_IMAGE)
-    ]
-
-
-def _simulate(scene, out, *args):
-    return CliRunner().invoke(cli, ["simulate", str(scene), "-o", str(out), *args])
 
 
 def _scene_with(tmp_path, table: str) -> Path:
@@ -42,30 +29,30 @@ def _scene_with(tmp_path, table: str) -> Path:
 def test_ideal_cameras_give_the_committed_fixtures_images_bit_for_bit(tmp_path, how):
     out = tmp_path / "ideal.mcap"
     if how == "table":
-        result = _simulate(_scene_with(tmp_path, "ideal = true\n"), out, *FIXTURE_ARGS)
+        result = simulate_cli(_scene_with(tmp_path, "ideal = true\n"), out, *FIXTURE_ARGS)
     else:  # the option overrides a realistic table
         scene = _scene_with(tmp_path, "ideal = false\n")
-        result = _simulate(scene, out, *FIXTURE_ARGS, "--camera", "ideal")
+        result = simulate_cli(scene, out, *FIXTURE_ARGS, "--camera", "ideal")
     assert result.exit_code == 0, result.output
-    want = _images(FIXTURES / "logs" / "corridor.mcap")
+    want = image_messages(FIXTURES / "logs" / "corridor.mcap")
     assert len(want) == 62
-    assert _images(out) == want
+    assert image_messages(out) == want
 
 
 def test_realistic_cameras_same_seed_same_images_and_the_metadata_says_so(tmp_path):
     logs = {}
     for name, seed in (("a", "1"), ("b", "1"), ("c", "2")):
         logs[name] = tmp_path / f"{name}.mcap"
-        result = _simulate(CORRIDOR, logs[name], *SMALL, "--seed", seed, "--camera", "realistic")
+        result = simulate_cli(CORRIDOR, logs[name], *SMALL, "--seed", seed, "--camera", "realistic")
         assert result.exit_code == 0, result.output
-    assert _images(logs["a"]) == _images(logs["b"])
-    assert _images(logs["a"]) != _images(logs["c"])
+    assert image_messages(logs["a"]) == image_messages(logs["b"])
+    assert image_messages(logs["a"]) != image_messages(logs["c"])
     ideal = tmp_path / "ideal.mcap"
-    assert _simulate(CORRIDOR, ideal, *SMALL, "--seed", "1", "--camera", "ideal").exit_code == 0
+    assert simulate_cli(CORRIDOR, ideal, *SMALL, "--seed", "1", "--camera", "ideal").exit_code == 0
     bundled = tmp_path / "bundled.mcap"  # the bundled scene's own table: realistic
-    assert _simulate(CORRIDOR, bundled, *SMALL, "--seed", "1").exit_code == 0
-    assert _images(bundled) == _images(logs["a"])
-    assert _images(ideal) != _images(logs["a"])
+    assert simulate_cli(CORRIDOR, bundled, *SMALL, "--seed", "1").exit_code == 0
+    assert image_messages(bundled) == image_messages(logs["a"])
+    assert image_messages(ideal) != image_messages(logs["a"])
     meta = open_log(logs["a"]).metadata()[contract.SIMULATION_METADATA]
     defects = json.loads(meta["camera_defects"])
     assert defects["ideal"] is False and defects["read_noise_e"] == 2.5
@@ -88,7 +75,7 @@ def test_realistic_cameras_same_seed_same_images_and_the_metadata_says_so(tmp_pa
 def test_a_bad_camera_parameter_exits_2_naming_the_file_and_field(tmp_path, table, field):
     scene = _scene_with(tmp_path, table)
     out = tmp_path / "bad.mcap"
-    result = _simulate(scene, out, *SMALL)
+    result = simulate_cli(scene, out, *SMALL)
     assert result.exit_code == 2, result.output
     assert str(scene.name) in result.output and f"'{field}'" in result.output
     assert not out.exists()
@@ -96,8 +83,8 @@ def test_a_bad_camera_parameter_exits_2_naming_the_file_and_field(tmp_path, tabl
 
 def test_an_exposure_longer_than_the_frame_period_names_the_fix(tmp_path):
     scene = _scene_with(tmp_path, "ideal = false\nexposure_ms = 50.0\n")  # 15 Hz: 66.7 ms
-    assert _simulate(scene, tmp_path / "ok.mcap", *SMALL).exit_code == 0
-    result = _simulate(scene, tmp_path / "bad.mcap", *SMALL, "--frame-rate", "30")
+    assert simulate_cli(scene, tmp_path / "ok.mcap", *SMALL).exit_code == 0
+    result = simulate_cli(scene, tmp_path / "bad.mcap", *SMALL, "--frame-rate", "30")
     assert result.exit_code == 2
     assert "longer than the frame period (33.3333 ms at 30 Hz)" in " ".join(result.output.split())
 

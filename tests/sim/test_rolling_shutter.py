@@ -6,9 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
-from flylog.cli.main import cli
 from flylog.geometry import Pose2D, StereoRig
 from flylog.io import contract
 from flylog.io.reader import open_log
@@ -25,6 +23,7 @@ from flylog.sim.camera_defects import CameraDefects
 from flylog.sim.render import Renderer
 from flylog.sources.inputs import replay_inputs
 from tests.benchmarks.bench_camera_defects import without_defects
+from tests.sim.cli_logs import image_messages, simulate_cli
 
 FIXTURES = Path(__file__).resolve().parents[2] / "fixtures"
 SCENES = FIXTURES / "scenes"
@@ -46,18 +45,6 @@ texture = { feature_size = 0.04, contrast = 0.6 }
 """,
     "mem",
 )
-
-
-def _images(path):
-    return [
-        (r.channel.topic, r.message.log_time, bytes(r.message.data))
-        for r in open_log(path).raw_messages()
-        if r.channel.topic in (contract.LEFT_IMAGE, contract.RIGHT_IMAGE)
-    ]
-
-
-def _simulate(scene, out, *args):
-    return CliRunner().invoke(cli, ["simulate", str(scene), "-o", str(out), *args])
 
 
 def _scene_with(tmp_path, name: str, table: str) -> Path:
@@ -164,8 +151,8 @@ def test_bands_cover_the_rows_once_each_at_its_middle_rows_time():
 def test_an_ideal_camera_ignores_the_row_period_bit_for_bit(tmp_path):
     scene = _scene_with(tmp_path, "corridor", "ideal = true\nrow_period_us = 200.0\n")
     out = tmp_path / "ideal.mcap"
-    assert _simulate(scene, out, *FIXTURE_ARGS).exit_code == 0
-    assert _images(out) == _images(FIXTURES / "logs" / "corridor.mcap")
+    assert simulate_cli(scene, out, *FIXTURE_ARGS).exit_code == 0
+    assert image_messages(out) == image_messages(FIXTURES / "logs" / "corridor.mcap")
     assert contract.SHUTTER_METADATA not in open_log(out).metadata()
 
 
@@ -174,9 +161,9 @@ def test_a_row_period_of_0_gives_the_realistic_cameras_images_bit_for_bit(tmp_pa
     zero = tmp_path / "zero.toml"
     zero.write_text(plain.read_text() + "row_period_us = 0.0\n")
     a, b = tmp_path / "a.mcap", tmp_path / "b.mcap"
-    assert _simulate(plain, a, *SMALL).exit_code == 0
-    assert _simulate(zero, b, *SMALL).exit_code == 0
-    assert _images(a) == _images(b)
+    assert simulate_cli(plain, a, *SMALL).exit_code == 0
+    assert simulate_cli(zero, b, *SMALL).exit_code == 0
+    assert image_messages(a) == image_messages(b)
     assert contract.SHUTTER_METADATA not in open_log(b).metadata()
 
 
@@ -184,15 +171,15 @@ def test_rolling_shutter_same_seed_same_images_and_the_reader_gets_its_row_perio
     scene = _scene_with(tmp_path, "turn", "ideal = false\nrow_period_us = 150.0\n")
     a, b = tmp_path / "a.mcap", tmp_path / "b.mcap"
     for out in (a, b):
-        result = _simulate(scene, out, *SMALL, "--seed", "3")
+        result = simulate_cli(scene, out, *SMALL, "--seed", "3")
         assert result.exit_code == 0, result.output
-    assert _images(a) == _images(b)
+    assert image_messages(a) == image_messages(b)
     plain = tmp_path / "plain.toml"
     plain.write_text(scene.read_text().replace("row_period_us = 150.0\n", ""))
     c = tmp_path / "c.mcap"
-    assert _simulate(plain, c, *SMALL, "--seed", "3").exit_code == 0
+    assert simulate_cli(plain, c, *SMALL, "--seed", "3").exit_code == 0
     # the turn scene turns from its start: the rows after row 0 differ
-    assert _images(a) != _images(c)
+    assert image_messages(a) != image_messages(c)
     reader = open_log(a)
     assert reader.metadata()[contract.SHUTTER_METADATA] == {
         "version": contract.SHUTTER_VERSION,
@@ -206,7 +193,7 @@ def test_a_readout_longer_than_the_frame_period_exits_2_naming_the_field_and_fix
     # 72 rows at 15 Hz: at most 925.9 us a row
     scene = _scene_with(tmp_path, "corridor", "ideal = false\nrow_period_us = 1000.0\n")
     out = tmp_path / "bad.mcap"
-    result = _simulate(scene, out, *SMALL)
+    result = simulate_cli(scene, out, *SMALL)
     assert result.exit_code == 2, result.output
     text = " ".join(result.output.split())
     assert "'camera_defects.row_period_us'" in text and scene.name in text
@@ -215,4 +202,4 @@ def test_a_readout_longer_than_the_frame_period_exits_2_naming_the_field_and_fix
     assert not out.exists()
     assert list(tmp_path.glob("*.mcap")) == []
     ok = _scene_with(tmp_path, "corridor", "ideal = false\nrow_period_us = 900.0\n")
-    assert _simulate(ok, tmp_path / "ok.mcap", *SMALL).exit_code == 0
+    assert simulate_cli(ok, tmp_path / "ok.mcap", *SMALL).exit_code == 0
