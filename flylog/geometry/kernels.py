@@ -72,3 +72,37 @@ def backproject(k, u, v, depth):  # pragma: no cover - compiled
     y = k[5] + (k[11] * a + k[14] * b + k[17] * depth)
     z = k[6] + (k[12] * a + k[15] * b + k[18] * depth)
     return x, y, z
+
+
+# A rolling shutter in kernels (:mod:`flylog.geometry.rolling`): ``rm`` is the robot's motion
+# per row (x, y, theta over the readout, divided by the image height); row v's motion is
+# v · rm. A point's row is clamped to [0, height] (NaN: row 0) before it sets the motion.
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def row_clamped(v, height):  # pragma: no cover - compiled
+    """``v`` within [0, ``height``]; NaN gives 0."""
+    if not v > 0.0:
+        return 0.0
+    return v if v < height else height
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def seen_at_row(rm, v, x, y):  # pragma: no cover - compiled
+    """(x, y) of a base_link point of the stamp as the robot sees it at row v's time: moved
+    by the inverse of row v's motion, as ``moved_by_odometry``, the turn's cos and sin to
+    second order (1 − a²/2, a)."""
+    a = v * rm[2]
+    c = 1.0 - 0.5 * a * a
+    dx = x - v * rm[0]
+    dy = y - v * rm[1]
+    return c * dx + a * dy, c * dy - a * dx
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def seen_at_stamp(rm, v, x, y):  # pragma: no cover - compiled
+    """The inverse of :func:`seen_at_row` (to its order): (x, y) of a point seen at row v's
+    time, in base_link at the stamp (row v's motion applied forward)."""
+    a = v * rm[2]
+    c = 1.0 - 0.5 * a * a
+    return v * rm[0] + (c * x - a * y), v * rm[1] + (a * x + c * y)
