@@ -41,11 +41,16 @@ class SonarConfig:
 
 @dataclass(frozen=True, slots=True)
 class StereoPair:
-    """A rectified stereo pair: (H, W, 3) uint8 RGB (or (H, W) grey) each."""
+    """A rectified stereo pair: (H, W, 3) uint8 RGB (or (H, W) grey) each, and the robot's
+    motion over the images' readout (a rolling shutter's: from the stamp, the exposure of
+    row 0, to the stamp + height · row period, in base_link at the stamp; the replay sets it
+    from the odometry, :mod:`flylog.geometry.rolling`). The default, no motion, puts every
+    row at the stamp: a global shutter."""
 
     stamp_ns: int
     left: np.ndarray
     right: np.ndarray
+    readout: Pose2D = Pose2D()
 
 
 @dataclass(frozen=True, slots=True)

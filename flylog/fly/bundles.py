@@ -14,8 +14,10 @@ class Images(NamedTuple):
     """The pair being scored and how: (H, W·C) uint8 rows, the rig's constants
     (:func:`~flylog.fly.fitness.rig_constants`), the window, guard, the weight of gy² in the
     Sobel norm² (:func:`~flylog.fly.fitness_terms.gy_weight`), whether the right window is
-    sampled at the exact right projection, and the pair's stamp. The similarity measure
-    travels beside it (:mod:`flylog.fly.measure`)."""
+    sampled at the exact right projection, the pair's stamp, and its rolling shutter: the
+    robot's motion per row (:func:`~flylog.geometry.rolling.row_motion`) and whether it is
+    non-zero (``rolling``: each fly is projected at its row's time; otherwise every row is
+    at the stamp). The similarity measure travels beside it (:mod:`flylog.fly.measure`)."""
 
     lrows: np.ndarray
     rrows: np.ndarray
@@ -26,6 +28,8 @@ class Images(NamedTuple):
     gy_weight: int
     subpixel: bool
     stamp: int
+    row_motion: np.ndarray
+    rolling: bool
 
 
 class Flies(NamedTuple):

@@ -57,7 +57,11 @@ from flylog.geometry.kernels import (
     RIGHT,
     optical,
     project,
+    row_clamped,
+    seen_at_row,
 )
+from flylog.geometry.poses import Pose2D
+from flylog.geometry.rolling import STILL, is_still, row_motion
 
 
 def rig_constants(rig: StereoRig) -> np.ndarray:
@@ -142,12 +146,37 @@ def _fitness_range(im, measure, xyz, index, start, stop, masks, out):  # pragma:
     focal, cx, cy, cx_right = k[FOCAL], k[CX], k[CY], k[CX_RIGHT]
     lx, ly, lz, ry = k[LEFT], k[LEFT + 1], k[LEFT + 2], k[RIGHT + 1]
     level = k[LEVEL] != 0.0
+    rm, rolling, rows = im.row_motion, im.rolling, float(height)
     for block in range(start, stop, _BLOCK):
         m = min(_BLOCK, stop - block)
         # A level rig: the numbers of the general loop without the rotation's zeros and ones
         # (one thread, 1.00x the level-only kernel's rate against 0.94-0.98x for the general
-        # loop on the same flies, tests/benchmarks/bench_fly.py).
-        if level:
+        # loop on the same flies, tests/benchmarks/bench_fly.py). A rolling shutter: each fly
+        # first seen from the robot at the time of the row it projects on at the stamp
+        # (flylog.geometry.rolling); a still readout keeps the stamp's arithmetic untouched.
+        if rolling and level:
+            for t in range(m):
+                i = index[block + t]
+                x, y, z = xyz[i, 0], xyz[i, 1], xyz[i, 2]
+                depth = x - lx
+                safe = depth if depth > 1e-9 else 1e-9
+                x, y = seen_at_row(rm, row_clamped(cy - focal * (z - lz) / safe, rows), x, y)
+                depth = x - lx
+                proj[0, t] = depth
+                proj[1, t] = cx - focal * (y - ly) / depth
+                proj[2, t] = cx_right - focal * (y - ry) / depth
+                proj[3, t] = cy - focal * (z - lz) / depth
+        elif rolling:
+            for t in range(m):
+                i = index[block + t]
+                x, y, z = xyz[i, 0], xyz[i, 1], xyz[i, 2]
+                x, y = seen_at_row(rm, row_clamped(project(k, x, y, z)[2], rows), x, y)
+                a, b, depth, ar = optical(k, x, y, z)
+                proj[0, t] = depth
+                proj[1, t] = cx + focal * a / depth
+                proj[2, t] = cx_right + focal * ar / depth
+                proj[3, t] = cy + focal * b / depth
+        elif level:
             for t in range(m):  # no branch: vectorised, four flies a division
                 i = index[block + t]
                 depth = xyz[i, 0] - lx
@@ -265,8 +294,10 @@ def images_of(
     gradient: Gradient = Gradient.NORM,
     subpixel: bool = False,
     stamp_ns: int = -1,
+    readout: Pose2D = STILL,
 ) -> Images:
-    """The pair as the kernels take it: (H, W·C) uint8 rows of (H, W) or (H, W, C) images."""
+    """The pair as the kernels take it: (H, W·C) uint8 rows of (H, W) or (H, W, C) images;
+    ``readout``: the robot's motion over the images' readout (:mod:`flylog.geometry.rolling`)."""
     left, right = as_planes(left), as_planes(right)
     height, width, channels = left.shape
     return Images(
@@ -279,6 +310,8 @@ def images_of(
         gy_weight=gy_weight(gradient),
         subpixel=bool(subpixel),
         stamp=stamp_ns,
+        row_motion=row_motion(readout, height),
+        rolling=not is_still(readout),
     )
 
 
@@ -308,11 +341,13 @@ def fitness_numba(
     gradient: Gradient = Gradient.NORM,
     similarity: Similarity = Similarity.ZSSD,
     subpixel: bool = False,
+    readout: Pose2D = STILL,
     index: np.ndarray | None = None,
     out: np.ndarray | None = None,
     parallel_min: int = PARALLEL_MIN_EVALUATIONS,
 ) -> np.ndarray:
-    """The fitness of the flies ``index`` of ``xyz`` (all if None), written into ``out``.
+    """The fitness of the flies ``index`` of ``xyz`` (all if None), written into ``out``;
+    each fly projected at its row's time under the rolling shutter's ``readout``.
 
     Runs in parallel over flies when there are at least ``parallel_min`` to evaluate.
     """
@@ -321,7 +356,9 @@ def fitness_numba(
         out = np.full(len(xyz), INVALID_FITNESS)
     if index is None:
         index = np.arange(len(xyz), dtype=np.int64)
-    im = images_of(left, right, rig, window, guard, gradient=gradient, subpixel=subpixel)
+    im = images_of(
+        left, right, rig, window, guard, gradient=gradient, subpixel=subpixel, readout=readout
+    )
     index = np.asarray(index, dtype=np.int64)
     fitness_into(im, measure_of(similarity), xyz, index, out, parallel_min)
     return out

@@ -16,7 +16,8 @@ from flylog.fly.fitness_terms import (
     subpixel_columns_numpy,
 )
 from flylog.fly.measures import measure_of
-from flylog.geometry import StereoRig
+from flylog.geometry import Pose2D, StereoRig
+from flylog.geometry.rolling import STILL, at_rows, is_still, row_motion
 
 
 def fitness_numpy(
@@ -30,14 +31,20 @@ def fitness_numpy(
     gradient: Gradient = Gradient.NORM,
     similarity: Similarity = Similarity.ZSSD,
     subpixel: bool = False,
+    readout: Pose2D = STILL,
 ) -> np.ndarray:
     """Reference: the fitness of every fly of ``xyz`` (N, 3), by gathering whole patches;
-    ``subpixel``: the right patch interpolated at the exact right projection."""
+    ``subpixel``: the right patch interpolated at the exact right projection; ``readout``:
+    the rolling shutter's motion, each fly projected at its row's time
+    (:func:`~flylog.geometry.rolling.at_rows`)."""
     left, right = as_planes(left), as_planes(right)
     height, width, channels = left.shape
     h = window // 2
     n = window * window
-    u_left, u_right, v, depth = rig.project(np.asarray(xyz, dtype=np.float64))
+    xyz = np.asarray(xyz, dtype=np.float64)
+    if not is_still(readout):
+        xyz = at_rows(xyz, rig, row_motion(readout, height))
+    u_left, u_right, v, depth = rig.project(xyz)
     ul, ur, vv = (np.floor(a + 0.5) for a in (u_left, u_right, v))
     q = np.zeros(len(ur), dtype=np.int64)
     if subpixel:

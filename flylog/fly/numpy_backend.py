@@ -76,7 +76,9 @@ class NumpyBackend:
         # move to where new content enters the view; their candidates' evaluations are
         # charged here, the chosen flies are scored with the other newcomers.
         assert st.left is not None and st.right is not None  # set by the first pair
-        evaluations += st.scouts.place(st.rng, nxt.xyz, n_immigrants, n_sonar, st.left, st.right)
+        evaluations += st.scouts.place(
+            st.rng, nxt.xyz, n_immigrants, n_sonar, st.left, st.right, readout=st.readout
+        )
         st.swap()
         evaluations += self._score(st.newcomers)
         st.generation += 1
@@ -119,6 +121,7 @@ class NumpyBackend:
                 gradient=cfg.gradient,
                 similarity=cfg.similarity,
                 subpixel=cfg.subpixel,
+                readout=st.readout,
             )
             pop.stale[index] = False
             pop.stamp_ns[index] = st.stamp_ns

@@ -199,6 +199,7 @@ class ObstacleFlies:
             subpixel=engine.subpixel,
             use_numba=engine.backend is Backend.NUMBA,
             infinity=self.distinct_at_infinity,
+            readout=pair.readout,
         )
         return out
 

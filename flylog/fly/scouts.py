@@ -32,8 +32,10 @@ from flylog.fly.bundles import Scouting as ScoutBundle
 from flylog.fly.config import EngineConfig
 from flylog.fly.fitness import fitness_numpy, fitness_serial
 from flylog.fly.operators import newcomer_constants
-from flylog.geometry import StereoRig
+from flylog.geometry import Pose2D, StereoRig
 from flylog.geometry.kernels import CX, CY, FOCAL, LEFT, RIG_SIZE, ROWS, backproject
+from flylog.geometry.kernels import seen_at_stamp as seen_at_stamp_kernel
+from flylog.geometry.rolling import STILL, is_still, row_motion, seen_at_stamp
 
 
 def entering_strip(
@@ -65,10 +67,13 @@ def scout_candidates_numpy(
     strip: tuple[float, float, bool],
     n: int,
     n_depths: int,
+    rm: np.ndarray | None = None,
 ) -> np.ndarray:
     """Reference: (n·K, 3) candidates, scout i's K in rows i·K…i·K+K−1, for a ``strip``
     from :func:`entering_strip` (``k`` from :func:`~flylog.fly.operators.newcomer_constants`).
-    A scout's disparities stay where its other projection is inside the image."""
+    A scout's disparities stay where its other projection is inside the image. ``rm``: a
+    rolling shutter's motion per row (:func:`~flylog.geometry.rolling.row_motion`); a
+    candidate seen at row v is then brought to the stamp by row v's motion."""
     lo, hi, margin, u_hi, v_lo, v_hi = (float(k[RIG_SIZE + j]) for j in range(6))
     fb, doffs = float(k[RIG_SIZE + 8]), float(k[RIG_SIZE + 9])
     c0, c1, in_right = strip
@@ -81,7 +86,10 @@ def scout_candidates_numpy(
     disparity = lo + (top - lo)[:, None] * strata
     z = fb / disparity
     u = (c[:, None] + (disparity - doffs)) if in_right else c[:, None]
-    out = _backproject_numpy(k, u, np.broadcast_to(v[:, None], u.shape), z)
+    rows = np.broadcast_to(v[:, None], u.shape)
+    out = _backproject_numpy(k, u, rows, z)
+    if rm is not None:
+        out = seen_at_stamp(out, rm, rows)
     return out.reshape(n * n_depths, 3)
 
 
@@ -100,8 +108,11 @@ def _backproject_numpy(
 
 
 @numba.njit(cache=True, nogil=True)
-def scout_candidates_into(rng, k, c0, c1, in_right, n_depths, out):  # pragma: no cover
-    """Same candidates as :func:`scout_candidates_numpy` (n = len(out) // K), into ``out``."""
+def scout_candidates_into(
+    rng, k, c0, c1, in_right, n_depths, rm, rolling, out
+):  # pragma: no cover - compiled
+    """Same candidates as :func:`scout_candidates_numpy` (n = len(out) // K), into ``out``;
+    with ``rolling``, each brought from its row's time to the stamp by ``rm`` (per row)."""
     lo, hi, margin = k[RIG_SIZE], k[RIG_SIZE + 1], k[RIG_SIZE + 2]
     u_hi, v_lo, v_hi = k[RIG_SIZE + 3], k[RIG_SIZE + 4], k[RIG_SIZE + 5]
     fb, doffs = k[RIG_SIZE + 8], k[RIG_SIZE + 9]
@@ -114,7 +125,10 @@ def scout_candidates_into(rng, k, c0, c1, in_right, n_depths, out):  # pragma: n
             z = fb / disparity
             u = c + (disparity - doffs) if in_right else c
             r = i * n_depths + j
-            out[r, 0], out[r, 1], out[r, 2] = backproject(k, u, v, z)
+            x, y, out[r, 2] = backproject(k, u, v, z)
+            if rolling:
+                x, y = seen_at_stamp_kernel(rm, v, x, y)
+            out[r, 0], out[r, 1] = x, y
 
 
 def best_candidates_numpy(candidates: np.ndarray, fitness: np.ndarray, n_depths: int) -> np.ndarray:
@@ -145,7 +159,9 @@ def scouts_into(rng, sc, n_scouts, im, measure, out):  # pragma: no cover - comp
     r = n_scouts * sc.n_depths
     candidates = sc.candidates[:r]
     fitness = sc.candidate_fitness[:r]
-    scout_candidates_into(rng, sc.k, sc.c0, sc.c1, sc.in_right, sc.n_depths, candidates)
+    scout_candidates_into(
+        rng, sc.k, sc.c0, sc.c1, sc.in_right, sc.n_depths, im.row_motion, im.rolling, candidates
+    )
     fitness_serial(im, measure, candidates, sc.candidate_index[:r], fitness)
     best_candidates_into(candidates, fitness, sc.n_depths, out)
 
@@ -231,16 +247,20 @@ class Scouting:
         n_sonar: int,
         left: np.ndarray,
         right: np.ndarray,
+        *,
+        readout: Pose2D = STILL,
     ) -> int:
         """The numpy backend's scouts: move the last :meth:`count` flies of ``xyz`` (uniform
         immigrants, after the sonar ones) to scouts' places; returns the fitness evaluations
-        made, K per scout. ``left``, ``right``: (H, W, C) uint8 planes of the newest images.
+        made, K per scout. ``left``, ``right``: (H, W, C) uint8 planes of the newest images,
+        ``readout`` their rolling shutter's motion.
         The compiled backend places them in its generation (:func:`scouts_into`)."""
         n = self.count(n_immigrants, n_sonar)
         if n == 0:
             return 0
         k = self._depths
-        candidates = scout_candidates_numpy(rng, self._k, self._strip, n, k)
+        rm = None if is_still(readout) else row_motion(readout, self.rig.height)
+        candidates = scout_candidates_numpy(rng, self._k, self._strip, n, k, rm)
         fitness = fitness_numpy(
             left,
             right,
@@ -251,6 +271,7 @@ class Scouting:
             gradient=self._gradient,
             similarity=self._similarity,
             subpixel=self._subpixel,
+            readout=readout,
         )
         xyz[len(xyz) - n :] = best_candidates_numpy(candidates, fitness, k)
         return n * k

@@ -21,6 +21,7 @@ from flylog.fly.photometric import Matching, matched
 from flylog.fly.population import Population, sharing_radius
 from flylog.fly.scouts import Scouting
 from flylog.geometry import StereoRig
+from flylog.geometry.rolling import STILL
 from flylog.sensors import SonarReading, StereoPair
 
 # Sonar immigrants: candidates are drawn n at a time, at most this many times.
@@ -67,6 +68,7 @@ class EngineState:
         self.left: np.ndarray | None = None
         self.matching: Matching | None = None  # the newest pair's photometric matching
         self.pair: StereoPair | None = None  # the newest pair as the flies are scored on it
+        self.readout = STILL  # the newest pair's motion over its readout (a rolling shutter)
         self.right: np.ndarray | None = None
         self.images: Images | None = None  # the pair as the compiled kernels take it
         self.stamp_ns = -1
@@ -93,10 +95,11 @@ class EngineState:
         if self.config.photometric is Photometric.MATCHED:
             ml, mr, self.matching = matched(_image(left), _image(right))
             left, right = as_planes(ml), as_planes(mr)
-            pair = StereoPair(pair.stamp_ns, ml, mr)
+            pair = StereoPair(pair.stamp_ns, ml, mr, pair.readout)
         self.pair = pair
         cfg = self.config
         self.left, self.right, self.stamp_ns = left, right, pair.stamp_ns
+        self.readout = pair.readout
         self.images = images_of(
             left,
             right,
@@ -106,6 +109,7 @@ class EngineState:
             gradient=cfg.gradient,
             subpixel=cfg.subpixel,
             stamp_ns=pair.stamp_ns,
+            readout=pair.readout,
         )
         self.pop.stale[:] = True
         self.scouts.new_images()

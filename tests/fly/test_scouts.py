@@ -15,6 +15,7 @@ from flylog.fly.scouts import (
     scout_candidates_numpy,
 )
 from flylog.geometry import Pose2D, StereoRig
+from flylog.geometry.rolling import row_motion, seen_at_rows
 from tests.fly.analytic import render, room, true_depth_at
 
 RIG = StereoRig(width=320, height=240, focal_px=250.0)
@@ -23,9 +24,11 @@ K = newcomer_constants(RIG, 0.5, 20.0, MARGIN)
 FB = RIG.focal_px * RIG.baseline
 
 
-def candidates_numba(rng, k, strip, n, n_depths):
+def candidates_numba(rng, k, strip, n, n_depths, rm=None):
     out = np.empty((n * n_depths, 3))
-    scout_candidates_into(rng, k, strip[0], strip[1], strip[2], n_depths, out)
+    rolling = rm is not None
+    rm = np.zeros(3) if rm is None else rm
+    scout_candidates_into(rng, k, strip[0], strip[1], strip[2], n_depths, rm, rolling, out)
     return out
 
 
@@ -197,3 +200,20 @@ def test_the_strip_spans_the_turn_of_the_last_image_intervals():
     scouts.turned(-0.001)  # 0.35 px at the edge, over 2 frames
     scouts.new_images()
     assert scouts.count(100, 0) == 0
+
+
+def test_candidates_under_a_rolling_shutter_are_their_rows_points_at_the_stamp():
+    # A scout drawn at (u, v) and a depth is seen at row v's time: brought to the stamp by
+    # row v's motion, it projects back to (u, v) once moved by that motion's inverse.
+    rm = row_motion(Pose2D(0.004, -0.002, 0.0156), RIG.height)
+    for yaw in (-0.03, 0.03):
+        strip = entering_strip(RIG, yaw, MARGIN)
+        a, b = np.random.default_rng(5), np.random.default_rng(5)
+        rolling = scout_candidates_numpy(a, K, strip, 37, 6, rm)
+        np.testing.assert_array_equal(rolling, candidates_numba(b, K, strip, 37, 6, rm))
+        still = scout_candidates_numpy(np.random.default_rng(5), K, strip, 37, 6)
+        v = RIG.project(still)[2]
+        assert np.abs(rolling - still).max() > 1e-3  # moved: 16 mrad over the readout
+        back = RIG.project(seen_at_rows(rolling, rm, v))
+        for got, want in zip(back, RIG.project(still), strict=True):
+            np.testing.assert_allclose(got, want, atol=1e-4)
