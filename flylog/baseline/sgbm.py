@@ -172,7 +172,9 @@ class SgbmEngine:
 
     def set_images(self, pair: StereoPair) -> StereoPair:
         """Process this pair at the next ``step`` (returned as it is: SGBM matches it
-        unchanged)."""
+        unchanged). Its ``readout`` (a rolling shutter's motion) is not used: a conventional
+        matcher takes the whole frame and has no model of a row's time, so its points are
+        placed at the stamp."""
         left, right = np.asarray(pair.left), np.asarray(pair.right)
         expected = (self.rig.height, self.rig.width)
         ok = left.shape == right.shape and left.shape[:2] == expected

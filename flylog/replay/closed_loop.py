@@ -33,10 +33,14 @@ class PlannerDriver:
         start: Pose2D,
         goal: tuple[float, float],
         write: Write,
+        *,
+        row_period_ns: float = 0.0,
     ) -> None:
         self.config = config
         # the simulator writes odom → base_link itself
-        self.pipeline = FlyPipeline(config, rig, start, goal, write, write_tf=False)
+        self.pipeline = FlyPipeline(
+            config, rig, start, goal, write, write_tf=False, row_period_ns=row_period_ns
+        )
         self.clock = VirtualClock(self.pipeline, clock_config(config, rig))
         self._stuck_since: float | None = None  # s: when the planner's STUCK began
         self._t = 0.0
@@ -108,6 +112,15 @@ def planner_driver(config: ReplayConfig) -> Callable[[Scene, Write], PlannerDriv
     its goal, seeing through the scene's camera."""
 
     def make_driver(scene: Scene, write: Write) -> PlannerDriver:
-        return PlannerDriver(config, scene.spec.camera, scene.start_pose, scene.goal, write)
+        defects = scene.spec.camera_defects  # the simulator's rolling shutter, as it renders
+        row_period_ns = 0.0 if defects.ideal else defects.row_period_us * 1000.0
+        return PlannerDriver(
+            config,
+            scene.spec.camera,
+            scene.start_pose,
+            scene.goal,
+            write,
+            row_period_ns=row_period_ns,
+        )
 
     return make_driver

@@ -20,7 +20,9 @@ class StereoEngine(Protocol):
     """What the pipeline needs of an engine (FlyEngine and SgbmEngine implement it)."""
 
     def set_images(self, pair: StereoPair) -> StereoPair:
-        """Work on ``pair``; returns it as the engine matches it."""
+        """Work on ``pair`` (with its ``readout``, the robot's motion over a rolling
+        shutter's readout, for an engine that places points at their rows' times); returns
+        it as the engine matches it."""
         ...
 
     def set_sonar(self, reading: SonarReading) -> None: ...

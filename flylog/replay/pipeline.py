@@ -16,6 +16,7 @@ part of snapshots), :mod:`~flylog.replay.fly_snapshot` (the flies' part), and
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from typing import Any
 
@@ -59,8 +60,10 @@ class FlyPipeline:
     the SgbmEngine, :func:`stereo_engine`) and a HarmonicPlanner.
 
     ``write(topic, t_ns, message)`` receives every output message; ``on_row`` one row of the
-    per-step table per planner tick. ``write_tf`` is off in the closed loop, where the
-    simulator writes odom → base_link itself.
+    per-step table per planner tick. ``row_period_ns``: the cameras' rolling shutter
+    (``ReplayInputs.row_period_ns``, 0: global); each pair is given to the engine with the
+    robot's motion over its readout (:meth:`PoseTracker.readout`). ``write_tf`` is off in
+    the closed loop, where the simulator writes odom → base_link itself.
 
     With ``planner_thread``, the planner's work (each tick, and each snapshot: the flies,
     the potential and the path), the encoding of every output and its writing run on a
@@ -85,9 +88,13 @@ class FlyPipeline:
         on_row: Callable[[dict[str, Any]], None] | None = None,
         planner_thread: bool = False,
         planner: bool = True,
+        row_period_ns: float = 0.0,
     ) -> None:
         self.config = config
         self.rig = rig
+        # a rolling shutter's readout, the whole image's (0: a global shutter): each pair
+        # carries the robot's motion over it, and the flies are scored at their rows' times
+        self._readout_ns = round(rig.height * row_period_ns)
         self.engine = stereo_engine(config, rig)
         # centred between start and goal, so both fit whenever they are extent apart at most
         centre = ((start.x + goal[0]) / 2.0, (start.y + goal[1]) / 2.0)
@@ -134,6 +141,9 @@ class FlyPipeline:
             self._owed_evaluations += moved.evaluations
             if moved.motion is not None:
                 self.engine.apply_motion(moved.motion)
+            if self._readout_ns > 0:
+                readout = self._poses.readout(record.stamp_ns, self._readout_ns)
+                record = dataclasses.replace(record, readout=readout)
             # the distinctness test scores flies on the images they were scored on
             self._pair = self.engine.set_images(record)
             self._owed_evaluations += self._photometric_cost

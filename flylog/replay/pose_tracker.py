@@ -103,6 +103,21 @@ class PoseTracker:
         """
         return self._corrected(pose_at(self._history, stamp_ns))
 
+    def readout(self, stamp_ns: int, span_ns: int) -> Pose2D:
+        """The robot's motion over an image's readout, ``span_ns`` long from ``stamp_ns``
+        (a rolling shutter's, :mod:`flylog.geometry.rolling`), from the odometry kept: the
+        motion from :meth:`at` ``stamp_ns`` to :meth:`at` ``stamp_ns + span_ns``, in base_link
+        at the stamp (the heading's correction, the same at both ends, cancels). Where the
+        readout's end lies past the newest reading (a pair is delivered before the readings
+        after its stamp; 31.2 ms of readout at 240 rows of 130 µs is longer than a 50 Hz
+        reading interval, over which :func:`pose_at` carries the motion on at most), the
+        same span ending at the newest reading (or at the stamp, if that is later): the
+        motion at the same constant velocity, measured instead of carried on."""
+        if span_ns <= 0:
+            return Pose2D()
+        end = min(stamp_ns + span_ns, max(self._history[-1].stamp_ns, stamp_ns))
+        return relative(self.at(end - span_ns), self.at(end))
+
     def add_odometry(self, reading: OdomReading) -> None:
         self._history.append(reading)
         self._odom = OdomReading(reading.stamp_ns, self._corrected(reading.pose))

@@ -142,6 +142,7 @@ def replay(
             on_row=rows.append,
             planner_thread=True,
             planner=source.planner,
+            row_period_ns=inputs.row_period_ns,
         )
         try:
             clock = VirtualClock(

@@ -104,3 +104,48 @@ def test_the_flies_snapshot_is_in_base_link_at_the_snapshots_time(monkeypatch):
     expected = moved_by_odometry(scored, relative(pose_at(readings, 50 * MS), at_snapshot))
     np.testing.assert_allclose(sent[0], expected, rtol=0, atol=1e-12)
     assert not np.allclose(sent[0], scored, atol=1e-3)  # 0.05 rad of turn between
+
+
+def _readout_of_pair(row_period_ns: float, stamp_ns: int, delivered: int) -> Pose2D:
+    """The readout the engine receives with a pair stamped ``stamp_ns``, when ``delivered``
+    odometry readings (50 Hz, turning at 0.5 rad/s) came before it."""
+    rig = StereoRig(width=64, height=48, focal_px=50.0)
+    pipeline = FlyPipeline(
+        ReplayConfig(seed=0),
+        rig,
+        Pose2D(0.0, 0.0, 3.0),
+        (5.0, 0.0),
+        lambda *a: None,
+        row_period_ns=row_period_ns,
+    )
+    try:
+        for r in list(_turning(delivered)):
+            pipeline.deliver(r)
+        images = np.full((48, 64, 3), 128, dtype=np.uint8)
+        pipeline.deliver(StereoPair(stamp_ns, images, images))
+        pipeline.generation(False)
+        pipeline.publish(stamp_ns + 10 * MS)
+        pair = pipeline.published.pair
+        assert pair is not None
+        return pair.readout
+    finally:
+        pipeline.close()
+
+
+def test_each_pair_carries_the_robots_motion_over_its_readout_from_the_odometry():
+    # 48 rows of 130 µs: a readout of 6.24 ms, 3.12 mrad of the 0.5 rad/s turn
+    period = 130_000.0
+    turn = 0.5 * 48 * period * 1e-9
+    # odometry past the readout's end (60 ms ≥ 50 + 6.24 ms): stamp to stamp + readout
+    inside = _readout_of_pair(period, 50 * MS, 4)
+    assert (inside.x, inside.y) == pytest.approx((0.0, 0.0), abs=1e-12)
+    assert inside.theta == pytest.approx(turn, rel=1e-9)
+    # the newest reading (60 ms) before the readout's end: the same span ending there
+    late = _readout_of_pair(period, 58 * MS, 4)
+    assert late.theta == pytest.approx(turn, rel=1e-9)
+    # a readout of 40 ms (834 µs a row) before the newest reading: measured, not carried on
+    # for one reading interval only (which would give 20 ms of it)
+    long = _readout_of_pair(834_000.0, 30 * MS, 4)
+    assert long.theta == pytest.approx(0.5 * 48 * 834_000e-9, rel=1e-9)
+    # a global shutter: every row at the stamp
+    assert _readout_of_pair(0.0, 50 * MS, 4) == Pose2D(0.0, 0.0, 0.0)
