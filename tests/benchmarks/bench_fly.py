@@ -21,7 +21,8 @@ import numpy as np
 
 from flylog.fly import EngineConfig, FlyEngine
 from flylog.fly.fitness import fitness_numba, fitness_numpy
-from flylog.geometry import StereoRig
+from flylog.geometry import Pose2D, StereoRig
+from flylog.geometry.rolling import STILL
 from flylog.sensors import SonarReading, StereoPair
 
 SCENE = Path(__file__).resolve().parents[2] / "fixtures" / "scenes" / "clutter.toml"
@@ -297,6 +298,89 @@ def _rig_kernel_figures(pair: StereoPair, rig: StereoRig) -> list[dict]:
                 f"15°, rolled 2°, off-centre principal point, doffs 4 px {ratios['tilted']:.3f}× "
                 f"({(outs['tilted'][:count] >= 0).mean():.0%} of those flies valid, "
                 f"{(outs['fast'][:count] >= 0).mean():.0%} of the level ones)",
+            }
+        )
+    return figures
+
+
+# 0.5 rad/s over a readout of 240 rows of 130 µs (31.2 ms): the turn logs' rolling shutter
+ROW_TIME_READOUT = Pose2D(0.0, 0.0, 0.5 * 240 * 130e-6)
+
+
+def _row_time_figures(pair: StereoPair, reading: SonarReading | None, rig: StereoRig) -> list[dict]:
+    """Fitness evaluations per second with each fly placed at its row's time (a moving
+    readout, :mod:`flylog.geometry.rolling`) against every row at the stamp, same run: the
+    engine in replay's rhythm (a new pair every 10 generations, a frame's generations one
+    call, 5000 flies, every operator on) and the fitness kernel alone (1 M flies, one
+    thread). The two alternate round by round (the same load on both); each figure is a
+    ratio of medians over the rounds of evaluations per second of this thread's CPU time."""
+    cfg = EngineConfig(flies=5000)
+    engines = {}
+    for name, readout in (("stamp", STILL), ("rows", ROW_TIME_READOUT)):
+        engine = FlyEngine(cfg, rig, np.random.default_rng(0))
+        if reading is not None:
+            engine.set_sonar(reading)
+        pairs = [StereoPair(i, pair.left, pair.right, readout) for i in range(10)]
+        engine.set_images(pairs[0])
+        engine.steps(20)  # compiled, converged
+        engines[name] = (engine, pairs)
+
+    def replay_rhythm(name: str) -> float:
+        engine, pairs = engines[name]
+        evaluations = 0
+        c0 = time.thread_time()
+        for p in pairs:
+            engine.set_images(p)
+            evaluations += sum(s.evaluations for s in engine.steps(10))
+        return evaluations / (time.thread_time() - c0)
+
+    rng = np.random.default_rng(0)
+    n = 1_000_000
+    u, v = rng.uniform(3, rig.width - 4, n), rng.uniform(3, rig.height - 4, n)
+    xyz = rig.backproject(u, v, 1.0 / rng.uniform(1 / 20.0, 1 / 0.5, n))
+    out, index = np.empty(n), np.arange(n)
+    measure = {"gradient": cfg.gradient, "similarity": cfg.similarity, "subpixel": cfg.subpixel}
+
+    def kernel(name: str) -> float:
+        readout = STILL if name == "stamp" else ROW_TIME_READOUT
+        c0 = time.thread_time()
+        fitness_numba(
+            pair.left,
+            pair.right,
+            xyz,
+            rig,
+            7,
+            1.0,
+            index=index,
+            out=out,
+            parallel_min=n + 1,
+            readout=readout,
+            **measure,
+        )
+        return n / (time.thread_time() - c0)
+
+    for name in ("stamp", "rows"):
+        kernel(name)  # compiled
+    rates: dict[str, dict[str, list[float]]] = {"engine": {}, "kernel": {}}
+    for _ in range(9):
+        for name in ("stamp", "rows"):
+            rates["engine"].setdefault(name, []).append(replay_rhythm(name))
+            rates["kernel"].setdefault(name, []).append(kernel(name))
+    figures = []
+    for what, label in (
+        ("engine", "engine, replay rhythm, 5000 flies"),
+        ("kernel", "fitness kernel, 1 M flies, one thread"),
+    ):
+        stamp = float(np.median(rates[what]["stamp"]))
+        rows = float(np.median(rates[what]["rows"]))
+        figures.append(
+            {
+                "name": f"evaluations per CPU-second, flies at their rows' times ({label})",
+                "value": rows,
+                "unit": "eval/s",
+                "reference": "every row at the stamp (a still readout), same run",
+                "ratio": rows / stamp,
+                "note": f"medians of 9 interleaved rounds; at the stamp {stamp / 1e6:.2f} M/s",
             }
         )
     return figures
@@ -613,7 +697,8 @@ import time, json
 t0 = time.perf_counter()
 import numpy as np
 from flylog.fly import EngineConfig, FlyEngine
-from flylog.geometry import StereoRig
+from flylog.geometry import Pose2D, StereoRig
+from flylog.geometry.rolling import STILL
 from flylog.sensors import StereoPair
 t1 = time.perf_counter()
 rig = StereoRig(width=64, height=48, focal_px=50.0)
@@ -754,6 +839,7 @@ def run(out_dir: Path) -> list[dict]:
         + _similarity_figures(pair, rig)
         + _rig_kernel_figures(pair, rig)
         + _generation_figures(pair, depth, reading, rig)
+        + _row_time_figures(pair, reading, rig)
         + _profile_figures(pair, reading, rig)
         + _stage_figures(pair, reading, rig)
         + _bundle_figures(pair, reading, rig)
