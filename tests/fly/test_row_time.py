@@ -20,12 +20,12 @@ from flylog.geometry.rolling import (
     seen_at_rows,
     seen_at_stamp,
 )
-from flylog.scene import parse_scene
 from flylog.sensors import StereoPair
 from flylog.sim.camera import frame_bands, shutter_bands
 from flylog.sim.camera_defects import CameraDefects
 from flylog.sim.render import Renderer
 from tests.fly.analytic import render, room
+from tests.sim.cli_logs import POST
 
 LEVEL = StereoRig(width=96, height=72, focal_px=80.0, baseline=0.12)
 ROTATED = StereoRig(
@@ -138,19 +138,6 @@ def test_distinctness_rivals_share_the_flys_pixel_at_its_rows_time():
 
 
 # --- against the simulator's rolling shutter --------------------------------------------------
-
-POST = parse_scene(
-    """
-name = "post"
-[[obstacles]]
-kind = "box"
-center = [3.2, 0.0]
-size = [0.4, 0.4]
-height = 10.0
-texture = { feature_size = 0.04, contrast = 0.6 }
-""",
-    "mem",
-)
 
 
 def test_a_turning_cameras_row_sees_a_post_edge_where_the_rolling_render_puts_it():

@@ -10,7 +10,6 @@ import pytest
 from flylog.geometry import Pose2D, StereoRig
 from flylog.io import contract
 from flylog.io.reader import open_log
-from flylog.scene import parse_scene
 from flylog.sim.camera import (
     BAND_MOTION_PX,
     arc_pose,
@@ -23,7 +22,7 @@ from flylog.sim.camera_defects import CameraDefects
 from flylog.sim.render import Renderer
 from flylog.sources.inputs import replay_inputs
 from tests.benchmarks.bench_camera_defects import without_defects
-from tests.sim.cli_logs import image_messages, simulate_cli
+from tests.sim.cli_logs import POST, image_messages, simulate_cli
 
 FIXTURES = Path(__file__).resolve().parents[2] / "fixtures"
 SCENES = FIXTURES / "scenes"
@@ -33,18 +32,6 @@ SMALL = ["--duration", "0.4", "--resolution", "96x72"]
 # A rig turning about its own optical centres' midpoint (mount_x 0): a turn moves the image
 # by f·tan(w·t) at the centre column, whatever the depth.
 RIG = StereoRig(width=320, height=240, focal_px=250.0, mount_x=0.0)
-POST = parse_scene(
-    """
-name = "post"
-[[obstacles]]
-kind = "box"
-center = [3.2, 0.0]
-size = [0.4, 0.4]
-height = 10.0
-texture = { feature_size = 0.04, contrast = 0.6 }
-""",
-    "mem",
-)
 
 
 def _scene_with(tmp_path, name: str, table: str) -> Path:
