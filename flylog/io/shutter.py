@@ -2,7 +2,9 @@
 (:data:`flylog.io.contract.SHUTTER_METADATA`), written and read.
 
 An image's stamp is the exposure middle of its row 0 and row v's is the stamp + v row
-periods; a log without the record reads as a global shutter (row period 0).
+periods; a log without the record reads as a global shutter (row period 0). A rolling shutter
+reads every row of a frame within the frame period (:func:`readout_excess`), whoever states
+the row period: a scene file's camera model or replay's ``--row-period``.
 """
 
 from __future__ import annotations
@@ -38,3 +40,18 @@ def row_period_ns(metadata: Mapping[str, Mapping[str, str]], *, where: str) -> f
         )
         raise LogError(msg)
     return value
+
+
+def readout_excess(row_period_us: float, height: int, frame_rate: float) -> str | None:
+    """The figures and the fix when ``height`` rows of ``row_period_us`` take longer to read
+    out than a frame period at ``frame_rate`` (Hz), to follow the name of what sets the row
+    period in an error; None when the readout fits."""
+    period_us = 1e6 / frame_rate
+    readout_us = height * row_period_us
+    if readout_us <= period_us:
+        return None
+    return (
+        f"{height} rows of {row_period_us:g} us take {readout_us / 1000.0:g} ms to read out, "
+        f"longer than the frame period ({period_us / 1000.0:g} ms at {frame_rate:g} Hz); lower "
+        f"it to at most {period_us / height:g} us"
+    )

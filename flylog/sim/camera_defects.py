@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 from flylog.config import param
 from flylog.errors import ConfigError
+from flylog.io.shutter import readout_excess
 
 
 class CameraPreset(enum.Enum):
@@ -178,17 +179,14 @@ def check_exposure(defects: CameraDefects, frame_rate: float, *, source: str) ->
 
 
 def check_readout(defects: CameraDefects, height: int, frame_rate: float, *, source: str) -> None:
-    """A rolling shutter reads every row within a frame period: ConfigError naming
+    """A rolling shutter reads every row within a frame period
+    (:func:`flylog.io.shutter.readout_excess`): ConfigError naming
     ``camera_defects.row_period_us`` in ``source`` and the bound when ``height`` rows of it
     take longer."""
-    period_us = 1e6 / frame_rate
-    readout_us = height * defects.row_period_us
-    if not defects.ideal and readout_us > period_us:
+    excess = None if defects.ideal else readout_excess(defects.row_period_us, height, frame_rate)
+    if excess is not None:
         msg = (
-            f"{source}: field 'camera_defects.row_period_us': {height} rows of "
-            f"{defects.row_period_us:g} us take {readout_us / 1000.0:g} ms to read out, longer "
-            f"than the frame period ({period_us / 1000.0:g} ms at {frame_rate:g} Hz); lower "
-            f"it to at most {period_us / height:g} us, or lower the frame rate or the "
-            "resolution"
+            f"{source}: field 'camera_defects.row_period_us': {excess}, or lower the frame "
+            "rate or the resolution"
         )
         raise ConfigError(msg)
