@@ -55,6 +55,7 @@ class ReplaySummary:
     status: str  # the planner's last status ("off": no planner)
     stereo: str  # the engine: flies or sgbm
     unpaired: int = 0  # images dropped for want of a partner (ROS 2 bags)
+    row_period_ns: float = 0.0  # the cameras' row period replayed with (0: a global shutter)
 
 
 def table_path(output: Path) -> Path:
@@ -106,12 +107,15 @@ def replay(
     *,
     goal: tuple[float, float] | None = None,
     bag: BagOptions | None = None,
+    row_period_us: float | None = None,
     on_progress: Callable[[float, float], None] | None = None,
     limits: Limits = DEFAULT_LIMITS,
 ) -> ReplaySummary:
     """Replay ``log`` (a flylog log or a ROS 2 bag, read with ``bag``'s options) and write
     ``output`` (MCAP) and its per-step table (Parquet), both atomically: after a failure
-    neither exists. ``on_progress(done_s, total_s)`` in log time. Without a goal (a bag
+    neither exists. ``row_period_us``: the cameras' row period, for any input, instead of a
+    log's flylog.shutter record (a global shutter without one); the run's metadata records
+    the one in effect. ``on_progress(done_s, total_s)`` in log time. Without a goal (a bag
     without one, and no ``goal``), the planner's outputs are not written. A job whose
     estimated output or memory is over ``limits`` is refused before it starts."""
     t0 = time.perf_counter()
@@ -120,7 +124,7 @@ def replay(
         [Role(Path(log), "the sensor log", "log")],
         [Role(Path(output), "the run", "output"), Role(table, "the step table", "output")],
     )
-    source = input_at(log).replay_source(goal=goal, bag=bag)
+    source = input_at(log).replay_source(goal=goal, bag=bag, row_period_us=row_period_us)
     inputs = source.inputs
     fingerprint = log_fingerprint(log)
     duration = (inputs.end_ns - inputs.start_ns) / 1e9
@@ -184,6 +188,7 @@ def replay(
                 "log_duration": f"{duration:.3f}",
                 "ground_test": json.dumps(inputs.has_ground),
                 "planner": json.dumps(inputs.has_planner),
+                "row_period_ns": json.dumps(inputs.row_period_ns),
             },
         )
     return ReplaySummary(
@@ -198,4 +203,5 @@ def replay(
         status=pipeline.command.status.value if source.planner else PLANNER_OFF,
         stereo=config.stereo.value,
         unpaired=source.unpaired,
+        row_period_ns=inputs.row_period_ns,
     )

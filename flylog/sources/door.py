@@ -40,13 +40,21 @@ class Input:
     reader: LogReader | None
 
     def replay_source(
-        self, *, goal: tuple[float, float] | None, bag: BagOptions | None = None
+        self,
+        *,
+        goal: tuple[float, float] | None,
+        bag: BagOptions | None = None,
+        row_period_us: float | None = None,
     ) -> ReplaySource:
         """The inputs and the paired record stream replay runs on; a flylog log must give
-        a goal (in its metadata or ``goal``), a bag's planner is off without one."""
+        a goal (in its metadata or ``goal``), a bag's planner is off without one. The
+        cameras' row period is ``row_period_us`` when given, whatever the input; else a
+        log's flylog.shutter record's, 0 (a global shutter) without one."""
         if self.reader is None:
-            return bag_source(self.path, goal=goal, bag=bag or BagOptions())
-        return log_source(self.reader, goal=goal)
+            return bag_source(
+                self.path, goal=goal, bag=bag or BagOptions(), row_period_us=row_period_us
+            )
+        return log_source(self.reader, goal=goal, row_period_us=row_period_us)
 
     def truth(self) -> LogTruth:
         """Scene, rig and the true and odometric trajectories (LogError naming what is

@@ -8,6 +8,10 @@ there is no ground plane (the obstacle rule's ground test is off); without ``--g
 goal in the log there is no planner. Each of these warns. A log of one stereo pair lasts one
 frame period from its stamp, so the default asynchronous replay gives the engine one frame
 period of virtual compute on it (``evals_per_second`` / ``frame_rate`` fitness evaluations).
+
+The cameras' row period is the log's ``flylog.shutter`` record's, 0 (a global shutter)
+without one, unless replay is given one (``row_period_us``, the command line's
+``--row-period``), which holds for any input: a log, an imported dataset's log or a ROS 2 bag.
 """
 
 from __future__ import annotations
@@ -19,13 +23,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from flylog.errors import LogError
+from flylog.errors import ConfigError, LogError
 from flylog.geometry import Pose2D, StereoRig
 from flylog.geometry.calibrated import Mount, calibrated_rig
 from flylog.geometry.stereo import OPTICAL_TO_BASE, quaternion_matrix
 from flylog.io import contract
 from flylog.io.reader import LogReader, require_topics
-from flylog.io.shutter import row_period_ns
+from flylog.io.shutter import readout_excess, row_period_ns
 
 # Topics replay reads; /truth/ is deliberately absent.
 SENSOR_TOPICS = (contract.LEFT_IMAGE, contract.RIGHT_IMAGE, contract.SONAR, contract.ODOM)
@@ -46,6 +50,11 @@ class DatasetLogWarning(UserWarning):
     without proprioception, without the ground test or without a planner."""
 
 
+class ShutterOverrideWarning(UserWarning):
+    """A log's flylog.shutter record gives another row period than the one replay is given:
+    replay uses the given one."""
+
+
 @dataclass(frozen=True)
 class ReplayInputs:
     rig: StereoRig
@@ -59,12 +68,60 @@ class ReplayInputs:
     has_planner: bool = True  # a goal was given or recorded
     frames: int = 0  # stereo pairs in the log
     # rolling shutter: row v of an image is exposed at its stamp + v · row_period_ns (0: a
-    # global shutter, every row at the stamp; logs without the record, bags, datasets)
+    # global shutter, every row at the stamp; logs without the record, bags, datasets), or
+    # the row period replay is given
     row_period_ns: float = 0.0
 
 
-def replay_inputs(reader: LogReader, *, goal: tuple[float, float] | None) -> ReplayInputs:
-    """Read the rig (calibration + static transforms), timing, start and goal of a log."""
+def given_row_period_ns(row_period_us: float, rig: StereoRig, *, where: str) -> float:
+    """The row period (ns) of ``row_period_us`` given for the input at ``where``, whose
+    images ``rig`` reads: ConfigError naming the parameter ``row_period_us`` when it is
+    negative or not finite, or when the image's rows take longer than a frame period to read
+    out (:func:`flylog.io.shutter.readout_excess`)."""
+    if not (math.isfinite(row_period_us) and row_period_us >= 0.0):
+        msg = (
+            f"the row period must be a finite number of microseconds >= 0 (0: a global "
+            f"shutter), got {row_period_us!r}"
+        )
+        raise ConfigError(msg, parameter="row_period_us")
+    excess = readout_excess(row_period_us, rig.height, rig.frame_rate)
+    if excess is not None:
+        msg = f"the row period given for {where}: {excess}"
+        raise ConfigError(msg, parameter="row_period_us")
+    return row_period_us * 1000.0
+
+
+def log_row_period_ns(reader: LogReader, rig: StereoRig, row_period_us: float | None) -> float:
+    """The row period (ns) replay reads ``reader``'s images with: the one given
+    (``row_period_us``, :func:`given_row_period_ns`), else the log's flylog.shutter record's
+    (0 without one). A record that gives another value than the one given warns, naming the
+    log and both values: the given one wins."""
+    where = str(reader.path)
+    if row_period_us is None:
+        return row_period_ns(reader.metadata(), where=where)
+    given = given_row_period_ns(row_period_us, rig, where=where)
+    record = reader.metadata().get(contract.SHUTTER_METADATA)
+    if record is None:
+        return given
+    try:
+        recorded = row_period_ns(reader.metadata(), where=where)
+        says = f"{recorded / 1000.0:g} us"
+    except LogError:
+        recorded, says = math.nan, f"{record.get('row_period_ns', '')!r} ns, not a number"
+    if recorded != given:
+        msg = (
+            f"{where}: its {contract.SHUTTER_METADATA} record gives a row period of {says}; "
+            f"replaying with the {row_period_us:g} us given (--row-period) instead"
+        )
+        warnings.warn(msg, ShutterOverrideWarning, stacklevel=3)
+    return given
+
+
+def replay_inputs(
+    reader: LogReader, *, goal: tuple[float, float] | None, row_period_us: float | None = None
+) -> ReplayInputs:
+    """Read the rig (calibration + static transforms), timing, start and goal of a log; its
+    row period is ``row_period_us`` when given (:func:`log_row_period_ns`)."""
     dataset = reader.metadata().get(contract.DATASET_METADATA)
     # a robot's log has odometry and the cameras' mount; a dataset's may have neither
     robot = () if dataset is not None else (contract.ODOM, contract.TF)
@@ -127,7 +184,7 @@ def replay_inputs(reader: LogReader, *, goal: tuple[float, float] | None) -> Rep
         has_ground=not no_mount,
         has_planner=planner,
         frames=frames,
-        row_period_ns=row_period_ns(reader.metadata(), where=str(reader.path)),
+        row_period_ns=log_row_period_ns(reader, rig, row_period_us),
     )
 
 

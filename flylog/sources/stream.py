@@ -14,7 +14,12 @@ from flylog.io.reader import LogReader
 from flylog.io.records import LogMessage
 from flylog.ros2.config import BagOptions
 from flylog.ros2.source import BagSource
-from flylog.sources.inputs import SENSOR_TOPICS, ReplayInputs, replay_inputs
+from flylog.sources.inputs import (
+    SENSOR_TOPICS,
+    ReplayInputs,
+    given_row_period_ns,
+    replay_inputs,
+)
 
 # Messages decoded ahead of the replay by a reading thread: about ten frames of stereo pairs
 # (≈ 20 MB at 640×480), enough to hide a chunk's decompression behind the engine's work.
@@ -41,18 +46,34 @@ class ReplaySource:
         return self._unpaired()
 
 
-def log_source(reader: LogReader, *, goal: tuple[float, float] | None) -> ReplaySource:
+def log_source(
+    reader: LogReader, *, goal: tuple[float, float] | None, row_period_us: float | None = None
+) -> ReplaySource:
     """The replay source of a flylog log (which must give a goal, in its metadata or
-    ``goal``)."""
-    inputs = replay_inputs(reader, goal=goal)
+    ``goal``); its row period is ``row_period_us`` when given, else its flylog.shutter
+    record's (:func:`~flylog.sources.inputs.log_row_period_ns`)."""
+    inputs = replay_inputs(reader, goal=goal, row_period_us=row_period_us)
     stream = pair_stereo(reader.messages(SENSOR_TOPICS, read_ahead=READ_AHEAD_MESSAGES))
     return ReplaySource(inputs, stream, inputs.has_planner, lambda: 0)
 
 
-def bag_source(log: Path, *, goal: tuple[float, float] | None, bag: BagOptions) -> ReplaySource:
+def bag_source(
+    log: Path,
+    *,
+    goal: tuple[float, float] | None,
+    bag: BagOptions,
+    row_period_us: float | None = None,
+) -> ReplaySource:
     """The replay source of a ROS 2 bag (options ``bag``): without a goal, given or in the
-    bag, the planner is off (a warning says so)."""
+    bag, the planner is off (a warning says so). A bag's messages say nothing of a rolling
+    shutter: its cameras read as a global shutter unless ``row_period_us`` is given
+    (:func:`~flylog.sources.inputs.given_row_period_ns`)."""
     source = BagSource(log, bag)
+    row_period_ns = (
+        0.0
+        if row_period_us is None
+        else given_row_period_ns(row_period_us, source.rig, where=str(log))
+    )
     start = source.start or Pose2D(0.0, 0.0, 0.0)
     goal = goal or source.goal
     if goal is None:
@@ -70,5 +91,6 @@ def bag_source(log: Path, *, goal: tuple[float, float] | None, bag: BagOptions) 
         end_ns=source.bag.end_ns,
         has_sonar=bool(source.roles.sonars),
         has_planner=goal is not None,
+        row_period_ns=row_period_ns,
     )
     return ReplaySource(inputs, source.records(), goal is not None, lambda: source.unpaired)

@@ -77,8 +77,8 @@ def _scores(log, out, seed, *, drop_tilt=False):
     )
     inputs = replay_source.replay_inputs
 
-    def without_tilt(reader, *, goal):
-        found = inputs(reader, goal=goal)
+    def without_tilt(reader, *, goal, **options):
+        found = inputs(reader, goal=goal, **options)
         return dataclasses.replace(found, rig=dataclasses.replace(found.rig, tilt=0.0))
 
     with pytest.MonkeyPatch.context() as mp:
