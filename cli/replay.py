@@ -7,6 +7,7 @@ from pathlib import Path
 import click
 
 from flylog.cli.common import (
+    Finite,
     OutputPath,
     limit_options,
     point,
@@ -55,6 +56,19 @@ REPLAY = "flylog.replay.config:ReplayConfig"
     "custom_data flylog.goal, else none: the planner off]",
 )
 @click.option(
+    "--row-period",
+    "row_period_us",
+    type=Finite(min=0.0),
+    default=None,
+    metavar="US",
+    help="The cameras' rolling shutter, for any input (a log, an imported dataset, a ROS 2 "
+    "bag): the time from one image row's exposure to the next's, in microseconds; row v is "
+    "exposed at the image's stamp + v x US (0: a global shutter). A rolling-shutter CMOS "
+    "reads a row in about 19 us (18.9 us on Sony's IMX219). The readout, image height x US, "
+    "must fit in a frame period. [default: the log's flylog.shutter record, 0 (global "
+    "shutter) without one]",
+)
+@click.option(
     "--topic",
     "topics",
     multiple=True,
@@ -93,6 +107,7 @@ def replay(
     sync: bool | None,
     snapshot_rate: float | None,
     goal: tuple[float, float] | None,
+    row_period_us: float | None,
     topics: tuple[str, ...],
     pair_tolerance: float | None,
     sonar_window: float | None,
@@ -139,6 +154,7 @@ def replay(
             config,
             goal=goal,
             bag=bag,
+            row_period_us=row_period_us,
             on_progress=update,
             limits=Limits(max_output_size=max_output_size, max_memory=max_memory),
         )
@@ -152,6 +168,11 @@ def replay(
         f"replayed in {summary.wall_seconds:.1f} s ({speed:.1f}× real time), "
         f"{summary.frames} frames, {work}, {summary.snapshots} snapshots, "
         f"planner {summary.status}"
+        + (
+            f", rolling shutter of {summary.row_period_ns / 1000.0:g} us a row"
+            if summary.row_period_ns
+            else ""
+        )
         + (f", {summary.unpaired} unpaired images dropped" if summary.unpaired else ""),
         soft_wrap=True,
     )
