@@ -14,12 +14,16 @@ from flylog.errors import ConfigError
 from flylog.io import contract
 from flylog.io.reader import open_log
 from flylog.io.shutter import shutter_metadata
+from flylog.replay.run import replay
+from flylog.ros2.export import export_ros2
+from flylog.ros2.messages import ImageFormat
 from flylog.sources.door import input_at
 from flylog.sources.inputs import DatasetLogWarning, ShutterOverrideWarning
 from tests.datasets.layouts import write_middlebury_scene
 from tests.logcopy import copy_log
 from tests.replay.test_replay import LOGS, content, table_rows
 from tests.ros2.bags import BagSpec, make_bag
+from tests.ros2.test_equivalence import NO_SONAR, outputs
 
 TURN = LOGS / "turn.mcap"  # 160x120 at 15 Hz, turning: a row period moves the flies
 FAST = ["--flies", "200", "--generations-per-frame", "1"]
@@ -155,3 +159,18 @@ def test_the_option_on_a_log_without_the_record_replays_as_the_record_does(tmp_p
     assert content(given) != content(plain)  # the row period is in effect: the flies move
     for run in (given, recorded):
         assert open_log(run).metadata()[contract.REPLAY_METADATA]["row_period_ns"] == "130000.0"
+
+
+def test_a_rolling_shutter_logs_export_replays_bit_for_bit_given_its_row_period(tmp_path):
+    # a bag has no place for the row period: the export of a log whose record gives 130 us
+    # replays as the log does once --row-period gives it back (sonar fusion off: Range
+    # carries float32 ranges, tests/ros2/test_equivalence.py)
+    log = with_record(tmp_path, 130000.0)
+    bag = export_ros2(log, tmp_path / "bag", image_format=ImageFormat.RGB8).output
+    reference = replay(log, tmp_path / "log-run.mcap", NO_SONAR)
+    given = replay(bag, tmp_path / "given.mcap", NO_SONAR, row_period_us=130.0)
+    assert outputs(given.output) == outputs(reference.output)
+    assert table_rows(given.table) == table_rows(reference.table)
+    unsaid = replay(bag, tmp_path / "unsaid.mcap", NO_SONAR)
+    assert unsaid.row_period_ns == 0.0
+    assert outputs(unsaid.output) != outputs(reference.output)
