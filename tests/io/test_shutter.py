@@ -9,7 +9,7 @@ import pytest
 from flylog.errors import LogError
 from flylog.io import contract
 from flylog.io.reader import open_log
-from flylog.io.shutter import row_period_ns, shutter_metadata
+from flylog.io.shutter import readout_excess, row_period_ns, shutter_metadata
 from flylog.io.writer import LogWriter
 from flylog.sources.door import input_at
 from tests.ros2.bags import make_bag
@@ -40,3 +40,13 @@ def test_a_malformed_row_period_names_the_record(tmp_path, value):
         log.add_metadata(contract.SHUTTER_METADATA, {"version": "1", "row_period_ns": value})
     with pytest.raises(LogError, match=re.escape("flylog.shutter.row_period_ns")):
         row_period_ns(open_log(path).metadata(), where=str(path))
+
+
+def test_a_readout_fits_a_frame_period_up_to_its_bound():
+    # 120 rows at 15 Hz: 66.667 ms, 555.556 us a row
+    assert readout_excess(555.5, 120, 15.0) is None
+    assert readout_excess(0.0, 120, 15.0) is None
+    assert readout_excess(600.0, 120, 15.0) == (
+        "120 rows of 600 us take 72 ms to read out, longer than the frame period "
+        "(66.6667 ms at 15 Hz); lower it to at most 555.556 us"
+    )
