@@ -94,8 +94,8 @@ def given_row_period_ns(row_period_us: float, rig: StereoRig, *, where: str) -> 
 def log_row_period_ns(reader: LogReader, rig: StereoRig, row_period_us: float | None) -> float:
     """The row period (ns) replay reads ``reader``'s images with: the one given
     (``row_period_us``, :func:`given_row_period_ns`), else the log's flylog.shutter record's
-    (0 without one). A record that gives another value than the one given warns, naming the
-    log and both values: the given one wins."""
+    (0 without one). A record that gives another value than the one given, or a malformed
+    one, warns, naming the log and both values: the given one wins."""
     where = str(reader.path)
     if row_period_us is None:
         return row_period_ns(reader.metadata(), where=where)
@@ -107,7 +107,7 @@ def log_row_period_ns(reader: LogReader, rig: StereoRig, row_period_us: float | 
         recorded = row_period_ns(reader.metadata(), where=where)
         says = f"{recorded / 1000.0:g} us"
     except LogError:
-        recorded, says = math.nan, f"{record.get('row_period_ns', '')!r} ns, not a number"
+        recorded, says = math.nan, f"{record.get('row_period_ns', '')!r} ns (not a row period)"
     if recorded != given:
         msg = (
             f"{where}: its {contract.SHUTTER_METADATA} record gives a row period of {says}; "

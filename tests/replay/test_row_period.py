@@ -3,6 +3,7 @@ flylog.shutter record, an imported dataset's log, a ROS 2 bag), the bad values i
 (exit 2, nothing written), and replays it gives bit for bit the same as the record does."""
 
 import math
+import re
 import warnings
 
 import pytest
@@ -10,7 +11,7 @@ from click.testing import CliRunner
 
 from flylog.cli.main import cli
 from flylog.datasets.run import import_dataset
-from flylog.errors import ConfigError
+from flylog.errors import ConfigError, LogError
 from flylog.io import contract
 from flylog.io.reader import open_log
 from flylog.io.shutter import shutter_metadata
@@ -74,6 +75,7 @@ def test_the_option_sets_a_bags_row_period_and_the_run_records_it(tmp_path):
     assert open_log(plain).metadata()[contract.REPLAY_METADATA]["row_period_ns"] == "0.0"
 
 
+@pytest.mark.filterwarnings("ignore::flylog.sources.inputs.NoSonarWarning")
 def test_the_option_sets_an_imported_datasets_row_period(tmp_path):
     write_middlebury_scene(tmp_path / "plane")
     (log,) = import_dataset("middlebury", tmp_path / "plane", tmp_path / "plane.mcap")
@@ -103,6 +105,22 @@ def test_a_record_that_says_another_row_period_warns_once_and_the_option_wins(tm
     text = " ".join(result.output.split())
     assert text.count("warning:") == 1 and "200 us" in text and "replaying with the 0 us" in text
     assert "rolling shutter" not in text
+
+
+def test_the_option_replaces_a_malformed_record_with_a_warning(tmp_path):
+    log = copy_log(
+        TURN,
+        tmp_path / "bad-record.mcap",
+        metadata=lambda records: {
+            **records,
+            contract.SHUTTER_METADATA: {"version": "1", "row_period_ns": "-5"},
+        },
+    )
+    with pytest.raises(LogError, match=re.escape("flylog.shutter.row_period_ns")):
+        input_at(log).replay_source(goal=None)
+    with pytest.warns(ShutterOverrideWarning, match=r"'-5' ns \(not a row period\)"):
+        source = input_at(log).replay_source(goal=None, row_period_us=18.9)
+    assert source.inputs.row_period_ns == 18900.0
 
 
 @pytest.mark.parametrize("value", ["-1", "nan", "inf", "-inf"])
